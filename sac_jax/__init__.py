@@ -1,0 +1,25 @@
+"""sac-jax: Soft Actor-Critic in JAX/Flax, whole training runs as one compiled `lax.scan`.
+
+Public API: `SACConfig`, `PRESETS`, `make_agent`, `Agent`, `SACState`, the updates
+(`update_critic`, `update_actor`, `update_temperature`, `update_value`, `polyak_update`,
+`sac_update`, `sample_noise`), the losses module, the replay buffer module, `evaluate` and
+`make_train`.
+"""
+
+from sac_jax import losses, replay_buffer
+from sac_jax.agent import Agent, SACState, make_agent
+from sac_jax.compilation_cache import enable_compilation_cache
+from sac_jax.config import SACConfig
+from sac_jax.evaluation import evaluate
+from sac_jax.presets import DEFAULT_PRESET, PRESETS
+from sac_jax.replay_buffer import ReplayBuffer, Transition
+from sac_jax.train import METRIC_NAMES, RunnerState, make_train
+from sac_jax.updates import (polyak_update, sac_update, sample_noise, update_actor,
+                             update_critic, update_temperature, update_value)
+
+__all__ = [
+    "Agent", "DEFAULT_PRESET", "enable_compilation_cache", "METRIC_NAMES", "PRESETS", "ReplayBuffer", "RunnerState",
+    "SACConfig", "SACState", "Transition", "evaluate", "losses", "make_agent", "make_train",
+    "polyak_update", "replay_buffer", "sac_update", "sample_noise", "update_actor",
+    "update_critic", "update_temperature", "update_value",
+]

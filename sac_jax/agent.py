@@ -1,0 +1,158 @@
+"""`Agent` (the static parts: config, networks, optimisers, action bounds) and `SACState` (the
+pytree of everything that changes: parameters, target parameters, optimiser states, temperature).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, Optional, Tuple
+
+import flax.struct
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from sac_jax.config import SACConfig
+from sac_jax.networks import Actor, CriticEnsemble, ValueNetwork
+from sac_jax.policy import deterministic_action, squashed_gaussian_sample
+
+
+class SACState(flax.struct.PyTreeNode):
+    """All mutable training state. Unused parts are None (critic targets in v1, value in v2).
+
+    `alpha` is the temperature the losses use; it becomes exp(log_alpha) after each temperature
+    step (before the first one it is `config.alpha_init`). `step` counts `sac_update` calls.
+    """
+
+    actor_params: Any
+    critic_params: Any
+    critic_target_params: Any
+    value_params: Any
+    value_target_params: Any
+    actor_opt_state: Any
+    critic_opt_state: Any
+    value_opt_state: Any
+    alpha_opt_state: Any
+    log_alpha: jax.Array
+    alpha: jax.Array
+    step: jax.Array
+
+
+def adam(learning_rate: float) -> optax.GradientTransformation:
+    """Adam with PyTorch's defaults (betas 0.9, 0.999; eps 1e-8 added to sqrt(v-hat))."""
+    return optax.adam(learning_rate, b1=0.9, b2=0.999, eps=1e-8)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Agent:
+    """Static description of a SAC learner; a pytree with no leaves, so it can be passed to
+    jitted functions as an ordinary argument. Build it with `make_agent`."""
+
+    config: SACConfig
+    observation_size: int
+    action_size: int
+    action_low: Tuple[float, ...]
+    action_high: Tuple[float, ...]
+    actor: Actor
+    critic: CriticEnsemble
+    value: Optional[ValueNetwork]
+    actor_optimizer: optax.GradientTransformation
+    critic_optimizer: optax.GradientTransformation
+    value_optimizer: optax.GradientTransformation
+    alpha_optimizer: optax.GradientTransformation
+
+    @property
+    def action_scale(self) -> jax.Array:
+        """(high - low) / 2, shape (A,)."""
+        return (jnp.asarray(self.action_high) - jnp.asarray(self.action_low)) / 2.0
+
+    @property
+    def action_bias(self) -> jax.Array:
+        """(high + low) / 2, shape (A,)."""
+        return (jnp.asarray(self.action_high) + jnp.asarray(self.action_low)) / 2.0
+
+    @property
+    def target_entropy(self) -> float:
+        t = self.config.target_entropy
+        return -float(self.action_size) if t is None else t
+
+    # ------------------------------------------------------------------ policy
+    def sample_action(self, actor_params, obs: jax.Array, noise: jax.Array):
+        """a ~ pi(.|s) reparameterised by noise eps (B, A); returns (a (B, A), log pi (B,))."""
+        mean, log_std = self.actor.apply(actor_params, obs)
+        return squashed_gaussian_sample(mean, log_std, noise, self.action_scale,
+                                        self.action_bias, self.config.log_prob_correction)
+
+    def act(self, actor_params, obs: jax.Array, key: Optional[jax.Array] = None) -> jax.Array:
+        """An action in environment units for obs (..., O): sampled if `key` is given, else the
+        deterministic scale * tanh(mu(s)) + bias."""
+        mean, log_std = self.actor.apply(actor_params, obs)
+        if key is None:
+            return deterministic_action(mean, self.action_scale, self.action_bias)
+        noise = jax.random.normal(key, mean.shape, mean.dtype)
+        return squashed_gaussian_sample(mean, log_std, noise, self.action_scale,
+                                        self.action_bias, self.config.log_prob_correction)[0]
+
+    # ------------------------------------------------------------------ state
+    def init(self, key: jax.Array) -> SACState:
+        """Fresh parameters (targets as copies of the online networks) and optimiser states."""
+        k_actor, k_critic, k_value = jax.random.split(key, 3)
+        obs = jnp.zeros((1, self.observation_size), jnp.float32)
+        action = jnp.zeros((1, self.action_size), jnp.float32)
+        actor_params = self.actor.init(k_actor, obs)
+        critic_params = self.critic.init(k_critic, obs, action)
+        v1 = self.config.variant == "v1"
+        value_params = self.value.init(k_value, obs) if v1 else None
+        log_alpha_init = self.config.log_alpha_init
+        if log_alpha_init is None:
+            log_alpha_init = math.log(self.config.alpha_init)
+        log_alpha = jnp.float32(log_alpha_init)
+        return SACState(
+            actor_params=actor_params,
+            critic_params=critic_params,
+            critic_target_params=None if v1 else critic_params,
+            value_params=value_params,
+            value_target_params=value_params,
+            actor_opt_state=self.actor_optimizer.init(actor_params),
+            critic_opt_state=self.critic_optimizer.init(critic_params),
+            value_opt_state=self.value_optimizer.init(value_params) if v1 else None,
+            alpha_opt_state=self.alpha_optimizer.init(log_alpha),
+            log_alpha=log_alpha,
+            alpha=jnp.float32(self.config.alpha_init),
+            step=jnp.int32(0),
+        )
+
+
+jax.tree_util.register_static(Agent)
+
+
+def make_agent(config: SACConfig, observation_size: int, action_size: int,
+               action_low, action_high) -> Agent:
+    """An `Agent` for observations of size O and actions of size A in [low, high] (each (A,))."""
+    low = tuple(float(x) for x in np.broadcast_to(np.asarray(action_low, np.float64), (action_size,)))
+    high = tuple(float(x) for x in np.broadcast_to(np.asarray(action_high, np.float64), (action_size,)))
+    if not all(math.isfinite(l) and math.isfinite(h) and l < h for l, h in zip(low, high)):
+        raise ValueError(f"action bounds must be finite with low < high, got low={low}, high={high}")
+    c = config
+    return Agent(
+        config=c,
+        observation_size=int(observation_size),
+        action_size=int(action_size),
+        action_low=low,
+        action_high=high,
+        actor=Actor(action_size=action_size, hidden_sizes=c.actor_hidden, initializer=c.init,
+                    last_layer_init=c.last_layer_init,
+                    separate_log_std_network=c.separate_log_std_network,
+                    log_std_mode=c.log_std_mode, log_std_min=c.log_std_min,
+                    log_std_max=c.log_std_max),
+        critic=CriticEnsemble(hidden_sizes=c.critic_hidden, num_critics=c.num_critics,
+                              initializer=c.init, last_layer_init=c.last_layer_init),
+        value=(ValueNetwork(hidden_sizes=c.critic_hidden, initializer=c.init,
+                            last_layer_init=c.last_layer_init) if c.variant == "v1" else None),
+        actor_optimizer=adam(c.actor_lr),
+        critic_optimizer=adam(c.critic_lr),
+        value_optimizer=adam(c.value_lr),
+        alpha_optimizer=adam(c.alpha_lr),
+    )

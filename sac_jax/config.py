@@ -1,0 +1,212 @@
+"""`SACConfig`: the static description of one SAC run, validated when built.
+
+Every field is a plain Python value, so a config is hashable and can be closed over by
+`jax.jit`. Building a config with a bad value raises `ValueError` naming the field and the
+rule it breaks; nothing is half-built.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Optional, Tuple
+
+VARIANTS = ("v2", "v1")
+INITS = ("flax", "torch", "xavier")
+LOG_STD_MODES = ("clip", "tanh")
+LOG_PROB_CORRECTIONS = ("exact", "epsilon")
+ALPHA_LOSSES = ("alpha", "log_alpha")
+ALPHA_LOG_PROBS = ("resample", "reuse")
+UPDATE_ORDERS = {
+    "v2": {("critic", "actor"), ("actor", "critic")},
+    "v1": {("value", "actor", "critic"), ("critic", "value", "actor"), ("value", "critic", "actor"),
+           ("actor", "value", "critic"), ("critic", "actor", "value"), ("actor", "critic", "value")},
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class SACConfig:
+    """Hyperparameters of SAC v2 (learned or fixed temperature) and SAC v1 (value network).
+
+    Environment steps count single transitions: one iteration of the training loop steps all
+    `num_envs` environments once and adds `num_envs` transitions to the replay buffer.
+    """
+
+    # --- task and loop ---
+    env: str = "InvertedPendulum-v5"
+    """Environment name, one of `envs.registered()`."""
+    variant: str = "v2"
+    """"v2": critic targets and temperature (Haarnoja et al. 2018b). "v1": value network V and
+    its Polyak target V-bar, no critic targets (Haarnoja et al. 2018a)."""
+    num_envs: int = 1
+    """Environments stepped in parallel per iteration."""
+    total_steps: int = 30_000
+    """Environment steps, prefill included. Training stops at the last whole evaluation period."""
+    learning_starts: int = 5_000
+    """Environment steps of uniform random actions that fill the buffer before any update."""
+    buffer_size: int = 1_000_000
+    """Replay capacity in transitions."""
+    batch_size: int = 256
+    updates_per_step: int = 1
+    """Gradient updates (calls of `sac_update`) per iteration of `num_envs` environment steps."""
+    eval_every: int = 5_000
+    """Environment steps between deterministic evaluations (rounded down to whole iterations)."""
+    eval_episodes: int = 10
+    """Evaluation episodes, run in parallel on their own environment instances."""
+
+    # --- objective ---
+    gamma: float = 0.99
+    tau: float = 0.005
+    """Polyak coefficient: target <- tau * online + (1 - tau) * target."""
+    target_update_period: int = 1
+    """Polyak update every this many `sac_update` calls."""
+    policy_frequency: int = 1
+    """CleanRL's policy delay K: every K-th update runs K actor (and temperature) steps."""
+    reward_scale: float = 1.0
+    """Multiplies rewards in the Q target (SAC v1's reward scale)."""
+    loss_coef: float = 1.0
+    """Factor of each squared-error loss (J_Q per critic, J_V): 1 for MSE, 0.5 for the paper's."""
+    update_order: Tuple[str, ...] = ("critic", "actor")
+    """Order of the updates inside `sac_update`; the temperature step follows each actor step and
+    the Polyak step comes last. v2: a permutation of ("critic", "actor"); v1: of
+    ("value", "actor", "critic")."""
+
+    # --- temperature ---
+    learn_alpha: bool = True
+    alpha_init: float = 1.0
+    """alpha used by the losses until the first temperature step."""
+    log_alpha_init: Optional[float] = None
+    """Initial log alpha for the temperature optimiser; None means log(alpha_init)."""
+    target_entropy: Optional[float] = None
+    """Target entropy H-bar of J_alpha; None means -|A|."""
+    alpha_loss: str = "alpha"
+    """J_alpha form: "alpha" = mean(-exp(log a)(log pi + H)); "log_alpha" = mean(-log a (log pi + H))."""
+    alpha_log_prob: str = "resample"
+    """log pi fed to J_alpha: "resample" draws a fresh action from the updated actor (CleanRL);
+    "reuse" takes the actor step's log pi (before its update)."""
+
+    # --- optimisers (Adam with PyTorch's defaults) ---
+    actor_lr: float = 3e-4
+    critic_lr: float = 1e-3
+    alpha_lr: float = 1e-3
+    value_lr: float = 3e-4
+
+    # --- networks ---
+    actor_hidden: Tuple[int, ...] = (256, 256)
+    critic_hidden: Tuple[int, ...] = (256, 256)
+    """Hidden widths of each critic and of the value network."""
+    num_critics: int = 2
+    init: str = "flax"
+    """"flax": lecun-normal kernels, zero bias; "torch": PyTorch's nn.Linear default
+    U(+-1/sqrt(fan_in)) for kernel and bias; "xavier": Xavier-uniform kernels, zero bias."""
+    last_layer_init: Optional[float] = None
+    """If set, output layers (Q, V, mean, log std) are drawn U(+-last_layer_init)."""
+    separate_log_std_network: bool = False
+    """Actor with separate mean and log-std MLPs (seed 001) instead of two heads on one trunk."""
+    log_std_mode: str = "tanh"
+    """"clip": clip to [log_std_min, log_std_max]; "tanh": min + (max - min)(tanh(x) + 1) / 2."""
+    log_std_min: float = -5.0
+    log_std_max: float = 2.0
+    log_prob_correction: str = "epsilon"
+    """"exact": log|d a/d u| = log scale + 2(log 2 - u - softplus(-2u)); "epsilon":
+    log(scale (1 - tanh(u)^2) + 1e-6) as the PyTorch seeds."""
+
+    def __post_init__(self):
+        # Lists from a JSON file or a CLI become tuples, so the config stays hashable.
+        for name in ("update_order", "actor_hidden", "critic_hidden"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
+        self._validate()
+
+    # ------------------------------------------------------------------ validation
+    def _validate(self):
+        def fail(field, rule):
+            raise ValueError(f"SACConfig.{field}={getattr(self, field)!r}: {rule}")
+
+        def choice(field, options):
+            if getattr(self, field) not in options:
+                fail(field, f"must be one of {list(options)}")
+
+        import envs  # local import: building a config must not pull MJX at module import
+
+        if self.env not in envs.registered():
+            fail("env", f"unknown environment; known: {list(envs.registered())}")
+        choice("variant", VARIANTS)
+        choice("init", INITS)
+        choice("log_std_mode", LOG_STD_MODES)
+        choice("log_prob_correction", LOG_PROB_CORRECTIONS)
+        choice("alpha_loss", ALPHA_LOSSES)
+        choice("alpha_log_prob", ALPHA_LOG_PROBS)
+        for field in ("num_envs", "total_steps", "buffer_size", "batch_size", "updates_per_step",
+                      "eval_every", "eval_episodes", "target_update_period", "policy_frequency",
+                      "num_critics"):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+                fail(field, "must be a positive integer")
+        if isinstance(self.learning_starts, bool) or not isinstance(self.learning_starts, int):
+            fail("learning_starts", "must be an integer")
+        for field in ("actor_hidden", "critic_hidden"):
+            sizes = getattr(self, field)
+            if not sizes or any(isinstance(h, bool) or not isinstance(h, int) or h <= 0
+                                for h in sizes):
+                fail(field, "must be a non-empty tuple of positive integers")
+        for field in ("gamma", "tau", "reward_scale", "loss_coef", "actor_lr", "critic_lr",
+                      "alpha_lr", "value_lr", "alpha_init", "log_std_min", "log_std_max"):
+            if not math.isfinite(getattr(self, field)):
+                fail(field, "must be finite")
+        for field in ("actor_lr", "critic_lr", "alpha_lr", "value_lr", "alpha_init",
+                      "reward_scale", "loss_coef"):
+            if getattr(self, field) <= 0:
+                fail(field, "must be > 0")
+        if not 0.0 <= self.gamma <= 1.0:
+            fail("gamma", "must lie in [0, 1]")
+        if not 0.0 < self.tau <= 1.0:
+            fail("tau", "must lie in (0, 1]")
+        if self.log_std_min >= self.log_std_max:
+            fail("log_std_min", f"must be below log_std_max={self.log_std_max}")
+        for field in ("log_alpha_init", "target_entropy", "last_layer_init"):
+            value = getattr(self, field)
+            if value is not None and not math.isfinite(value):
+                fail(field, "must be finite or None")
+        if self.last_layer_init is not None and self.last_layer_init <= 0:
+            fail("last_layer_init", "must be > 0 or None")
+        if self.batch_size > self.buffer_size:
+            fail("batch_size", f"must not exceed buffer_size={self.buffer_size}")
+        if self.learning_starts < self.batch_size:
+            fail("learning_starts", f"must be at least batch_size={self.batch_size}, so the "
+                 "first update samples a full batch of real transitions")
+        if self.learning_starts % self.num_envs:
+            fail("learning_starts", f"must be a multiple of num_envs={self.num_envs}")
+        if self.eval_every % self.num_envs:
+            fail("eval_every", f"must be a multiple of num_envs={self.num_envs}")
+        if self.total_steps < self.learning_starts + self.eval_every:
+            fail("total_steps", f"must be at least learning_starts + eval_every = "
+                 f"{self.learning_starts + self.eval_every}")
+        if self.buffer_size < self.num_envs:
+            fail("buffer_size", f"must hold one iteration's num_envs={self.num_envs} transitions")
+        if self.update_order not in UPDATE_ORDERS[self.variant]:
+            fail("update_order", f"for variant {self.variant!r} must be one of "
+                 f"{sorted(UPDATE_ORDERS[self.variant])}")
+        if self.variant == "v1" and self.learn_alpha:
+            fail("learn_alpha", "SAC v1 uses a fixed temperature (and reward_scale); set False")
+
+    # ------------------------------------------------------------------ derived sizes
+    @property
+    def iterations_per_eval(self) -> int:
+        """Training iterations between two evaluations."""
+        return self.eval_every // self.num_envs
+
+    @property
+    def num_evals(self) -> int:
+        """Evaluations in a run; each follows `eval_every` environment steps of training."""
+        return (self.total_steps - self.learning_starts) // self.eval_every
+
+    @property
+    def prefill_iterations(self) -> int:
+        return self.learning_starts // self.num_envs
+
+    def replace(self, **changes) -> "SACConfig":
+        """A copy with `changes` applied, validated anew."""
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise ValueError(f"SACConfig has no field(s) {sorted(unknown)}")
+        return dataclasses.replace(self, **changes)

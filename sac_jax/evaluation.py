@@ -1,0 +1,31 @@
+"""Deterministic evaluation of a policy on its own environment instances, inside jit."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from sac_jax.agent import Agent
+
+
+def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int) -> jax.Array:
+    """Undiscounted returns (num_episodes,) of the mean action scale * tanh(mu(s)) + bias.
+
+    Runs `num_episodes` fresh episodes in parallel until each terminates or truncates (a
+    `lax.while_loop` that stops when all have ended); rewards after an episode's end are ignored.
+    """
+    states = jax.vmap(env.reset)(jax.random.split(key, num_episodes))
+
+    def running(carry):
+        _, alive, _ = carry
+        return jnp.any(alive)
+
+    def step(carry):
+        states, alive, returns = carry
+        states = jax.vmap(env.step)(states, agent.act(actor_params, states.obs))
+        returns = returns + jnp.where(alive, states.reward, 0.0)
+        alive = alive & ~(states.terminated | states.truncated)
+        return states, alive, returns
+
+    init = (states, jnp.ones(num_episodes, bool), jnp.zeros(num_episodes, jnp.float32))
+    return jax.lax.while_loop(running, step, init)[2]

@@ -1,0 +1,136 @@
+"""Flax networks of SAC: an MLP, the critic ensemble Q_1..Q_N, the value network V and the actor.
+
+Shapes: observations (..., O), actions (..., A); a batch dimension B is optional everywhere.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Optional, Sequence, Tuple
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+
+def _uniform(bound: float) -> Callable:
+    def init(key, shape, dtype=jnp.float32):
+        return jax.random.uniform(key, shape, dtype, -bound, bound)
+
+    return init
+
+
+def dense_initializers(initializer: str, fan_in: int, last_layer_init: Optional[float], last: bool):
+    """(kernel_init, bias_init) of one Dense layer.
+
+    "flax": lecun-normal kernel, zero bias. "torch": nn.Linear's default, kernel and bias
+    U(+-1/sqrt(fan_in)). "xavier": Xavier-uniform kernel, zero bias. `last_layer_init=c`
+    overrides an output layer with U(+-c) for kernel and bias.
+    """
+    if last and last_layer_init is not None:
+        return _uniform(last_layer_init), _uniform(last_layer_init)
+    if initializer == "torch":
+        bound = 1.0 / fan_in ** 0.5
+        return _uniform(bound), _uniform(bound)
+    if initializer == "xavier":
+        return nn.initializers.xavier_uniform(), nn.initializers.zeros
+    return nn.initializers.lecun_normal(), nn.initializers.zeros
+
+
+class MLP(nn.Module):
+    """x -> relu(W_1 x + b_1) -> ... -> W_L h + b_L, with layers named `Dense_0..Dense_{L-1}`.
+
+    `output_sizes` lists every layer's width, the last one included; `activate_final` applies
+    ReLU after the last layer too (a trunk).
+    """
+
+    output_sizes: Sequence[int]
+    initializer: str = "flax"
+    last_layer_init: Optional[float] = None
+    activate_final: bool = False
+
+    @nn.compact
+    def __call__(self, x: jax.Array) -> jax.Array:
+        for i, size in enumerate(self.output_sizes):
+            last = i == len(self.output_sizes) - 1
+            kernel_init, bias_init = dense_initializers(
+                self.initializer, x.shape[-1], self.last_layer_init, last and not self.activate_final)
+            x = nn.Dense(size, kernel_init=kernel_init, bias_init=bias_init, name=f"Dense_{i}")(x)
+            if not last or self.activate_final:
+                x = nn.relu(x)
+        return x
+
+
+class CriticEnsemble(nn.Module):
+    """Q_1..Q_N(s, a): N independent MLPs on concat(s, a), evaluated as one batched computation.
+
+    Parameters carry a leading axis N (one `nn.vmap` over the critic MLP), so the N critics run as
+    one batched matmul per layer. Returns Q of shape (N, ...) for inputs (..., O) and (..., A).
+    """
+
+    hidden_sizes: Sequence[int]
+    num_critics: int = 2
+    initializer: str = "flax"
+    last_layer_init: Optional[float] = None
+
+    @nn.compact
+    def __call__(self, obs: jax.Array, action: jax.Array) -> jax.Array:
+        ensemble = nn.vmap(
+            MLP,
+            variable_axes={"params": 0},
+            split_rngs={"params": True},
+            in_axes=None,
+            out_axes=0,
+            axis_size=self.num_critics,
+        )
+        q = ensemble(tuple(self.hidden_sizes) + (1,), self.initializer, self.last_layer_init,
+                     name="critics")(jnp.concatenate([obs, action], axis=-1))
+        return q[..., 0]
+
+
+class ValueNetwork(nn.Module):
+    """V_psi(s): an MLP to one output. Returns shape (...) for observations (..., O)."""
+
+    hidden_sizes: Sequence[int]
+    initializer: str = "flax"
+    last_layer_init: Optional[float] = None
+
+    @nn.compact
+    def __call__(self, obs: jax.Array) -> jax.Array:
+        v = MLP(tuple(self.hidden_sizes) + (1,), self.initializer, self.last_layer_init, name="value")(obs)
+        return v[..., 0]
+
+
+class Actor(nn.Module):
+    """Gaussian pre-squash parameters (mu(s), log sigma(s)), each of shape (..., A).
+
+    Either one ReLU trunk with two linear heads `mean` and `log_std` (seeds 000, 002, 003) or two
+    separate MLPs `mean_net` and `log_std_net` (seed 001). The raw log-std head output x becomes
+    "clip": clip(x, min, max), or "tanh": min + (max - min)(tanh(x) + 1) / 2.
+    """
+
+    action_size: int
+    hidden_sizes: Sequence[int]
+    initializer: str = "flax"
+    last_layer_init: Optional[float] = None
+    separate_log_std_network: bool = False
+    log_std_mode: str = "tanh"
+    log_std_min: float = -5.0
+    log_std_max: float = 2.0
+
+    @nn.compact
+    def __call__(self, obs: jax.Array) -> Tuple[jax.Array, jax.Array]:
+        sizes = tuple(self.hidden_sizes) + (self.action_size,)
+        if self.separate_log_std_network:
+            mean = MLP(sizes, self.initializer, self.last_layer_init, name="mean_net")(obs)
+            log_std = MLP(sizes, self.initializer, self.last_layer_init, name="log_std_net")(obs)
+        else:
+            h = MLP(tuple(self.hidden_sizes), self.initializer, activate_final=True, name="trunk")(obs)
+            head = lambda name: MLP((self.action_size,), self.initializer, self.last_layer_init,
+                                    name=name)(h)
+            mean, log_std = head("mean"), head("log_std")
+        if self.log_std_mode == "clip":
+            log_std = jnp.clip(log_std, self.log_std_min, self.log_std_max)
+        else:
+            log_std = self.log_std_min + 0.5 * (self.log_std_max - self.log_std_min) * (
+                jnp.tanh(log_std) + 1.0)
+        return mean, log_std

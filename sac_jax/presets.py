@@ -1,0 +1,42 @@
+"""Named configurations: the seeds' SACs and `fast`, the default.
+
+    cleanrl   seed 002: CleanRL-style SAC v2 on InvertedPendulum-v4
+    v1        seeds 000/003: SAC v1 (value network, reward scale 2, fixed alpha = 1) on the
+              Bullet-style InvertedPendulum, seed 000's update order V -> pi -> Q -> V-bar
+    pendulum  seed 001: SAC v2 on Pendulum-v1 with 3x64 networks and its temperature handling
+    fast      InvertedPendulum-v5, tuned by measurement for wall-clock time to an evaluation
+              return of 950 on 2 CPU cores (BENCHMARKS.md)
+"""
+
+from sac_jax.config import SACConfig
+
+PRESETS = {
+    "cleanrl": SACConfig(
+        env="InvertedPendulum-v4", total_steps=30_000, learning_starts=5_000,
+        buffer_size=1_000_000, batch_size=256, gamma=0.99, tau=0.005, policy_frequency=2,
+        target_update_period=1, actor_lr=3e-4, critic_lr=1e-3, alpha_lr=1e-3,
+        actor_hidden=(256, 256), critic_hidden=(256, 256), init="torch",
+        log_std_mode="tanh", log_std_min=-5.0, log_std_max=2.0,
+        log_prob_correction="epsilon", alpha_loss="alpha", alpha_log_prob="resample"),
+    "v1": SACConfig(
+        env="InvertedPendulumBullet-v0", variant="v1", total_steps=20_000,
+        learning_starts=1_000, batch_size=256, gamma=0.99, tau=0.005, reward_scale=2.0,
+        loss_coef=0.5, update_order=("value", "actor", "critic"), learn_alpha=False,
+        alpha_init=1.0, actor_lr=3e-4, critic_lr=3e-4, value_lr=3e-4,
+        actor_hidden=(256, 256), critic_hidden=(256, 256), init="torch", last_layer_init=3e-3,
+        log_std_mode="clip", log_std_min=-20.0, log_std_max=2.0,
+        log_prob_correction="epsilon"),
+    "pendulum": SACConfig(
+        env="Pendulum-v1", total_steps=20_000, learning_starts=1_000, batch_size=256,
+        eval_every=2_000, gamma=0.99, tau=0.005, actor_lr=3e-4, critic_lr=3e-4, alpha_lr=3e-4,
+        actor_hidden=(64, 64, 64), critic_hidden=(64, 64, 64), init="xavier",
+        separate_log_std_network=True, log_std_mode="clip", log_std_min=-20.0,
+        log_std_max=2.0, log_prob_correction="epsilon", alpha_init=0.5, log_alpha_init=0.0,
+        alpha_loss="log_alpha", alpha_log_prob="reuse"),
+    "fast": SACConfig(
+        env="InvertedPendulum-v5", num_envs=8, total_steps=20_000, learning_starts=1_024,
+        eval_every=1_024, batch_size=256, updates_per_step=1, actor_lr=1e-3, critic_lr=1e-3,
+        alpha_lr=1e-3, actor_hidden=(64, 64), critic_hidden=(64, 64),
+        log_std_mode="tanh", log_prob_correction="exact"),
+}
+DEFAULT_PRESET = "fast"

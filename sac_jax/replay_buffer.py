@@ -1,0 +1,72 @@
+"""A fixed-capacity ring buffer of transitions held in device memory, as a pytree.
+
+`init`, `add` and `sample` are pure: each returns a new buffer (inside `lax.scan` XLA updates the
+carried arrays in place). Every array of the stored pytree has a leading capacity axis C.
+"""
+
+from __future__ import annotations
+
+from typing import Tuple, Union
+
+import flax.struct
+import jax
+import jax.numpy as jnp
+
+
+class Transition(flax.struct.PyTreeNode):
+    """(s, a, r, s', terminated). `action` in environment units; `next_obs` is the true
+    observation after the step (the final one on truncation), so targets can bootstrap there.
+    Shapes with a batch B: obs (B, O), action (B, A), reward (B,), next_obs (B, O),
+    terminated (B,) float32 in {0, 1}."""
+
+    obs: jax.Array
+    action: jax.Array
+    reward: jax.Array
+    next_obs: jax.Array
+    terminated: jax.Array
+
+
+class ReplayBuffer(flax.struct.PyTreeNode):
+    """`data`: a pytree of arrays (C, ...); `position`: next slot to write; `size`: filled slots."""
+
+    data: Transition
+    position: jax.Array
+    size: jax.Array
+
+    @property
+    def capacity(self) -> int:
+        return jax.tree_util.tree_leaves(self.data)[0].shape[0]
+
+
+def init(capacity: int, example: Transition) -> ReplayBuffer:
+    """An empty buffer of `capacity` slots shaped and typed like one unbatched `example`."""
+    data = jax.tree_util.tree_map(
+        lambda x: jnp.zeros((capacity,) + jnp.shape(x), jnp.asarray(x).dtype), example)
+    return ReplayBuffer(data=data, position=jnp.int32(0), size=jnp.int32(0))
+
+
+def add(buffer: ReplayBuffer, batch: Transition) -> ReplayBuffer:
+    """Writes the n transitions of `batch` (leading axis n) at slots position..position+n-1,
+    overwriting the oldest once full. C must be a multiple of n, so a batch never straddles the
+    end; the write is one `dynamic_update_slice`, done in place inside `lax.scan`."""
+    capacity = buffer.capacity
+    n = jax.tree_util.tree_leaves(batch)[0].shape[0]
+    if capacity % n:
+        raise ValueError(f"replay capacity {capacity} is not a multiple of the batch of {n} "
+                         "transitions added at once")
+    data = jax.tree_util.tree_map(
+        lambda d, x: jax.lax.dynamic_update_slice_in_dim(d, x.astype(d.dtype), buffer.position, 0),
+        buffer.data, batch)
+    return ReplayBuffer(data=data,
+                        position=(buffer.position + n) % capacity,
+                        size=jnp.minimum(buffer.size + n, capacity))
+
+
+def sample(buffer: ReplayBuffer, key: jax.Array, batch_shape: Union[int, Tuple[int, ...]]
+           ) -> Transition:
+    """Transitions drawn uniformly with replacement from the filled slots [0, size), with leading
+    axes `batch_shape` (B or, for several minibatches at once, (U, B)). Sampling an empty buffer
+    returns slot 0 (zeros); `make_train` never does."""
+    shape = (batch_shape,) if isinstance(batch_shape, int) else tuple(batch_shape)
+    idx = jax.random.randint(key, shape, 0, jnp.maximum(buffer.size, 1))
+    return jax.tree_util.tree_map(lambda d: d[idx], buffer.data)

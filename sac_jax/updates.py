@@ -1,0 +1,203 @@
+"""Pure, jit-able SAC updates: each maps (agent, state, data, randomness) to (state, metrics).
+
+Randomness is either a PRNG key or explicit standard-normal noise eps (float array of the shape
+the update needs, (B, A)), so tests can replay a reference implementation's noise.
+Every update takes one Adam step on its own parameters and leaves the rest of the state as is.
+"""
+
+from __future__ import annotations
+
+from typing import Dict, Tuple, Union
+
+import jax
+import jax.numpy as jnp
+import optax
+
+from sac_jax import losses
+from sac_jax.agent import Agent, SACState
+from sac_jax.replay_buffer import Transition
+
+KeyOrNoise = Union[jax.Array, Dict[str, jax.Array]]
+Metrics = Dict[str, jax.Array]
+
+
+def as_noise(key_or_noise: jax.Array, shape: Tuple[int, ...]) -> jax.Array:
+    """Standard-normal noise of `shape`: drawn from a PRNG key, or a float array passed through."""
+    if jnp.issubdtype(jnp.asarray(key_or_noise).dtype, jnp.floating):
+        if key_or_noise.shape != shape:
+            raise ValueError(f"noise has shape {key_or_noise.shape}, expected {shape}")
+        return key_or_noise
+    return jax.random.normal(key_or_noise, shape)
+
+
+def _adam_step(optimizer: optax.GradientTransformation, params, grads, opt_state):
+    updates, opt_state = optimizer.update(grads, opt_state, params)
+    return optax.apply_updates(params, updates), opt_state
+
+
+def polyak_update(target, online, tau: float):
+    """theta-bar <- tau theta + (1 - tau) theta-bar, leaf by leaf."""
+    return jax.tree_util.tree_map(lambda t, o: tau * o + (1.0 - tau) * t, target, online)
+
+
+def update_critic(agent: Agent, state: SACState, batch: Transition,
+                  key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
+    """One Adam step on J_Q (see `losses.critic_loss`) for all N critics at once.
+
+    v2 target: r + gamma (1 - d)(min_j Q-bar_j(s', a') - alpha log pi(a'|s')), a' = f(eps; s'),
+    eps (B, A). v1 target: c r + gamma (1 - d) V-bar(s') (the noise is unused).
+    """
+    cfg = agent.config
+    if cfg.variant == "v2":
+        noise = as_noise(key_or_noise, batch.action.shape)
+        next_action, next_log_prob = agent.sample_action(state.actor_params, batch.next_obs, noise)
+        q_next = agent.critic.apply(state.critic_target_params, batch.next_obs, next_action)
+        next_value = jnp.min(q_next, axis=0) - state.alpha * next_log_prob
+    else:
+        next_value = agent.value.apply(state.value_target_params, batch.next_obs)
+    target = jax.lax.stop_gradient(losses.soft_q_target(
+        batch.reward, batch.terminated, next_value, cfg.gamma, cfg.reward_scale))
+
+    def loss_fn(params):
+        q = agent.critic.apply(params, batch.obs, batch.action)
+        return losses.critic_loss(q, target, cfg.loss_coef), q
+
+    (loss, q), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.critic_params)
+    params, opt_state = _adam_step(agent.critic_optimizer, state.critic_params, grads,
+                                   state.critic_opt_state)
+    return (state.replace(critic_params=params, critic_opt_state=opt_state),
+            {"critic_loss": loss, "q": jnp.mean(q)})
+
+
+def update_actor(agent: Agent, state: SACState, obs: jax.Array,
+                 key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
+    """One Adam step on J_pi = mean(alpha log pi(a~|s) - min_i Q_i(s, a~)), a~ = f(eps; s).
+
+    obs (B, O), eps (B, A). metrics["log_prob"] (B,) is log pi(a~|s) before the step.
+    """
+    noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
+
+    def loss_fn(params):
+        action, log_prob = agent.sample_action(params, obs, noise)
+        q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
+        return losses.actor_loss(log_prob, q_min, state.alpha), log_prob
+
+    (loss, log_prob), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.actor_params)
+    params, opt_state = _adam_step(agent.actor_optimizer, state.actor_params, grads,
+                                   state.actor_opt_state)
+    return (state.replace(actor_params=params, actor_opt_state=opt_state),
+            {"actor_loss": loss, "entropy": -jnp.mean(log_prob), "log_prob": log_prob})
+
+
+def update_temperature(agent: Agent, state: SACState,
+                       log_prob: jax.Array) -> Tuple[SACState, Metrics]:
+    """One Adam step on J_alpha over log alpha (see `losses.temperature_loss`), log_prob (B,)
+    held constant; afterwards alpha = exp(log alpha)."""
+    cfg = agent.config
+    log_prob = jax.lax.stop_gradient(log_prob)
+    loss, grad = jax.value_and_grad(losses.temperature_loss)(
+        state.log_alpha, log_prob, agent.target_entropy, cfg.alpha_loss)
+    log_alpha, opt_state = _adam_step(agent.alpha_optimizer, state.log_alpha, grad,
+                                      state.alpha_opt_state)
+    alpha = jnp.exp(log_alpha)
+    return (state.replace(log_alpha=log_alpha, alpha=alpha, alpha_opt_state=opt_state),
+            {"alpha_loss": loss, "alpha": alpha})
+
+
+def update_value(agent: Agent, state: SACState, obs: jax.Array,
+                 key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
+    """One Adam step on J_V (see `losses.value_loss`), a~ = f(eps; s), obs (B, O), eps (B, A)."""
+    noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
+    action, log_prob = agent.sample_action(state.actor_params, obs, noise)
+    q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
+    target = jax.lax.stop_gradient(q_min - state.alpha * log_prob)
+
+    def loss_fn(params):
+        return losses.value_loss(agent.value.apply(params, obs), target, agent.config.loss_coef)
+
+    loss, grads = jax.value_and_grad(loss_fn)(state.value_params)
+    params, opt_state = _adam_step(agent.value_optimizer, state.value_params, grads,
+                                   state.value_opt_state)
+    return state.replace(value_params=params, value_opt_state=opt_state), {"value_loss": loss}
+
+
+def sample_noise(agent: Agent, key: jax.Array, batch_size: int) -> Dict[str, jax.Array]:
+    """All noise one `sac_update` may use: "critic" and "value" (B, A); "actor" and
+    "temperature" (K, B, A) for K = policy_frequency actor steps."""
+    k = agent.config.policy_frequency
+    shape = (batch_size, agent.action_size)
+    keys = jax.random.split(key, 4)
+    return {"critic": jax.random.normal(keys[0], shape),
+            "value": jax.random.normal(keys[1], shape),
+            "actor": jax.random.normal(keys[2], (k,) + shape),
+            "temperature": jax.random.normal(keys[3], (k,) + shape)}
+
+
+def _actor_block(agent: Agent, state: SACState, obs: jax.Array, noise) -> Tuple[SACState, Metrics]:
+    """K actor steps, each followed by a temperature step when alpha is learned; metrics of the
+    last step."""
+    cfg = agent.config
+
+    def one(state, eps):
+        eps_actor, eps_temperature = eps
+        state, metrics = update_actor(agent, state, obs, eps_actor)
+        log_prob = metrics.pop("log_prob")
+        if cfg.learn_alpha:
+            if cfg.alpha_log_prob == "resample":
+                _, log_prob = agent.sample_action(state.actor_params, obs, eps_temperature)
+            state, alpha_metrics = update_temperature(agent, state, log_prob)
+            metrics.update(alpha_metrics)
+        return state, metrics
+
+    state, metrics = jax.lax.scan(one, state, (noise["actor"], noise["temperature"]))
+    return state, jax.tree_util.tree_map(lambda m: m[-1], metrics)
+
+
+def sac_update(agent: Agent, state: SACState, batch: Transition,
+               key_or_noise: KeyOrNoise) -> Tuple[SACState, Metrics]:
+    """One SAC gradient update as `agent.config` composes it.
+
+    In `config.update_order`: "critic" (J_Q), "value" (J_V, v1) and the actor block ("actor":
+    K = policy_frequency steps of J_pi, each followed by J_alpha if alpha is learned), which runs
+    only on every K-th call (CleanRL's delayed policy update). Then, every
+    `target_update_period`-th call, Polyak averaging of the critic targets (v2) or of V-bar (v1).
+    `key_or_noise` is a PRNG key or a dict as from `sample_noise`. Metrics skipped this call
+    (the actor block's when it does not run) are NaN.
+    """
+    cfg = agent.config
+    batch_size = batch.obs.shape[0]
+    noise = (key_or_noise if isinstance(key_or_noise, dict)
+             else sample_noise(agent, key_or_noise, batch_size))
+    count = state.step + 1
+    metrics: Metrics = {}
+    for name in cfg.update_order:
+        if name == "critic":
+            state, m = update_critic(agent, state, batch, noise["critic"])
+        elif name == "value":
+            state, m = update_value(agent, state, batch.obs, noise["value"])
+        elif cfg.policy_frequency == 1:
+            state, m = _actor_block(agent, state, batch.obs, noise)
+        else:
+            def skip(state):
+                shapes = jax.eval_shape(lambda s: _actor_block(agent, s, batch.obs, noise)[1],
+                                        state)
+                return state, jax.tree_util.tree_map(
+                    lambda s: jnp.full(s.shape, jnp.nan, s.dtype), shapes)
+
+            state, m = jax.lax.cond(count % cfg.policy_frequency == 0,
+                                    lambda s: _actor_block(agent, s, batch.obs, noise), skip, state)
+        metrics.update(m)
+    metrics["alpha"] = state.alpha
+
+    def polyak(state):
+        if cfg.variant == "v2":
+            return state.replace(critic_target_params=polyak_update(
+                state.critic_target_params, state.critic_params, cfg.tau))
+        return state.replace(value_target_params=polyak_update(
+            state.value_target_params, state.value_params, cfg.tau))
+
+    if cfg.target_update_period == 1:
+        state = polyak(state)
+    else:
+        state = jax.lax.cond(count % cfg.target_update_period == 0, polyak, lambda s: s, state)
+    return state.replace(step=count), metrics
