@@ -1,0 +1,18 @@
+"""Quiet import of MuJoCo XLA (MJX).
+
+``from mujoco import mjx`` prints "Failed to import warp..." on stdout when the optional
+Warp backend is missing.  Every module of :mod:`envs` imports ``mjx`` from here, so that
+importing :mod:`envs` prints nothing.
+"""
+
+import contextlib
+import io
+
+with contextlib.redirect_stdout(io.StringIO()):
+    from mujoco import mjx
+    # MJX internals used by the single-forward RK4 step (envs.mjx_env.MjxEnv._rk4); the
+    # project pins mujoco-mjx, so these private names are stable for it.
+    from mujoco.mjx._src import forward as mjx_forward
+    from mujoco.mjx._src import scan as mjx_scan
+
+__all__ = ["mjx", "mjx_forward", "mjx_scan"]

@@ -1,0 +1,129 @@
+"""Batched environments with automatic reset, for ``lax.scan`` training loops.
+
+``VectorEnv(env, n)`` runs n independent copies of ``env`` with ``jax.vmap``.  When copy i
+terminates or truncates, its next state is a fresh ``env.reset(k_i)`` with a new key k_i
+split from ``VectorState.key`` (never a cached initial state), and ``VectorStep`` reports
+both the observation to act on next and the true final observation of the ended episode.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from envs.types import Env, EnvState
+
+
+class VectorState(struct.PyTreeNode):
+    """State of a VectorEnv of n copies.
+
+    Attributes:
+        env_state: EnvState with a leading batch axis n on every leaf.
+        key: PRNG key for the resets of ended episodes.
+        episode_return: (n,) float32, return so far of each running episode.
+        episode_length: (n,) int32, steps so far of each running episode.
+    """
+
+    env_state: EnvState
+    key: jax.Array
+    episode_return: jax.Array
+    episode_length: jax.Array
+
+
+class VectorStep(struct.PyTreeNode):
+    """What one ``VectorEnv.step`` reports, all with leading axis n.
+
+    Attributes:
+        obs: (n, obs_size) observation to act on next: a fresh reset observation where
+            the episode ended (``done``), else ``final_obs``.
+        final_obs: (n, obs_size) observation reached by this step, before any reset.
+        reward, terminated, truncated: (n,) of this step.
+        done: (n,) bool, ``terminated | truncated``.
+        episode_return: (n,) float32, Σ rewards of the episode including this step.
+        episode_length: (n,) int32, number of steps of the episode including this step.
+            Both are meaningful where ``done``.
+    """
+
+    obs: jax.Array
+    final_obs: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    done: jax.Array
+    episode_return: jax.Array
+    episode_length: jax.Array
+
+
+class VectorEnv:
+    """n copies of ``env`` stepped in lock-step, with auto-reset (see the module docstring)."""
+
+    def __init__(self, env: Env, num_envs: int):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        self._env = env
+        self._num_envs = num_envs
+
+    @property
+    def env(self) -> Env:
+        return self._env
+
+    @property
+    def num_envs(self) -> int:
+        return self._num_envs
+
+    def __repr__(self) -> str:
+        return f"<VectorEnv {self._env.name} x{self._num_envs}>"
+
+    def _reset_all(self, key: jax.Array) -> EnvState:
+        """Batched EnvState of n fresh episodes, one key each split from ``key``."""
+        return jax.vmap(self._env.reset)(jax.random.split(key, self._num_envs))
+
+    def reset(self, key: jax.Array) -> VectorState:
+        """Start n episodes; key: PRNG key."""
+        key, reset_key = jax.random.split(key)
+        return VectorState(
+            env_state=self._reset_all(reset_key),
+            key=key,
+            episode_return=jnp.zeros(self._num_envs, jnp.float32),
+            episode_length=jnp.zeros(self._num_envs, jnp.int32),
+        )
+
+    def step(self, vstate: VectorState, actions: jax.Array) -> tuple[VectorState, VectorStep]:
+        """Step all copies with actions (n, action_size); reset those whose episode ended.
+
+        Fresh states are only computed (for all n copies, then selected) on steps where at
+        least one episode ended.
+        """
+        stepped = jax.vmap(self._env.step)(vstate.env_state, actions)
+        done = stepped.terminated | stepped.truncated
+        episode_return = vstate.episode_return + stepped.reward
+        episode_length = vstate.episode_length + 1
+        key, reset_key = jax.random.split(vstate.key)
+
+        def reset_done(state: EnvState) -> EnvState:
+            fresh = self._reset_all(reset_key)
+
+            def select(new: jax.Array, old: jax.Array) -> jax.Array:
+                return jnp.where(done.reshape((-1,) + (1,) * (old.ndim - 1)), new, old)
+
+            return jax.tree_util.tree_map(select, fresh, state)
+
+        env_state = jax.lax.cond(jnp.any(done), reset_done, lambda state: state, stepped)
+        next_vstate = VectorState(
+            env_state=env_state,
+            key=key,
+            episode_return=jnp.where(done, 0.0, episode_return),
+            episode_length=jnp.where(done, 0, episode_length),
+        )
+        info = VectorStep(
+            obs=env_state.obs,
+            final_obs=stepped.obs,
+            reward=stepped.reward,
+            terminated=stepped.terminated,
+            truncated=stepped.truncated,
+            done=done,
+            episode_return=episode_return,
+            episode_length=episode_length,
+        )
+        return next_vstate, info
