@@ -181,8 +181,9 @@ class SACConfig:
         if self.total_steps < self.learning_starts + self.eval_every:
             fail("total_steps", f"must be at least learning_starts + eval_every = "
                  f"{self.learning_starts + self.eval_every}")
-        if self.buffer_size < self.num_envs:
-            fail("buffer_size", f"must hold one iteration's num_envs={self.num_envs} transitions")
+        if self.buffer_size % self.num_envs:
+            fail("buffer_size", f"must be a multiple of num_envs={self.num_envs} (each "
+                 "iteration writes num_envs transitions in one piece)")
         if self.update_order not in UPDATE_ORDERS[self.variant]:
             fail("update_order", f"for variant {self.variant!r} must be one of "
                  f"{sorted(UPDATE_ORDERS[self.variant])}")

@@ -1,12 +1,17 @@
 """`make_train(config) -> train(key)`: a whole SAC run as one pure, jit-able, vmap-able function.
 
-    prefill:  learning_starts / num_envs iterations of uniform random actions into the buffer
-    train:    num_evals x [ iterations_per_eval x iteration ; deterministic evaluation ]
-    iteration: act on all num_envs environments, step them (auto-reset), add the num_envs
-               transitions to the buffer, run updates_per_step `sac_update`s on sampled batches
+One `lax.scan` runs all iterations; iteration i:
+    act       uniform random actions while i < learning_starts / num_envs (prefill), then
+              a ~ pi(.|s) on all num_envs environments
+    step      `envs.VectorEnv.step` (auto-reset), add the num_envs transitions to the buffer
+    learn     after the prefill: updates_per_step `sac_update`s on freshly sampled batches
+    evaluate  after every eval_every training steps: deterministic returns on separate
+              environment instances, and the period's metric means written to the outputs
 
-Everything is `lax.scan`/`lax.while_loop`, so `jax.jit(train)` compiles one program and
-`jax.jit(jax.vmap(train))(keys)` trains many seeds in it.
+The environment step, the update and the evaluation each appear once in the traced program
+(prefill and training share the iteration; phases switch with `lax.cond` on the iteration
+index, which stays a real branch under `vmap`), which keeps compile time down.
+`jax.jit(train)` compiles one program; `jax.jit(jax.vmap(train))(keys)` trains many seeds in it.
 """
 
 from __future__ import annotations
@@ -29,12 +34,15 @@ METRIC_NAMES = ("critic_loss", "q", "actor_loss", "entropy", "alpha_loss", "alph
 
 
 class RunnerState(flax.struct.PyTreeNode):
-    """Everything a run carries between iterations."""
+    """Everything a run carries between iterations. `sums` accumulates the current evaluation
+    period's metrics as (sum, count) pairs; `outputs` holds one slot per evaluation point."""
 
     sac: SACState
     env: envs.VectorState
     buffer: ReplayBuffer
     key: jax.Array
+    sums: Dict[str, jax.Array]
+    outputs: Dict[str, jax.Array]
 
 
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:
@@ -52,61 +60,63 @@ def make_train(config: SACConfig,
     `env_steps` (environment steps done), `eval_return` (mean deterministic return over
     `eval_episodes`), `train_return` (mean return of training episodes ended in the period, NaN
     if none), and the period means of the update metrics in `METRIC_NAMES` (NaN where unused).
-    `progress`, if given, is called on the host with that evaluation point's metrics (through
+    `progress`, if given, is called on the host with each evaluation point's metrics (through
     `jax.debug.callback`; under `vmap` once per seed).
     """
     agent, env = agent_for(config)
     vec = envs.VectorEnv(env, config.num_envs)
     low, high = jnp.asarray(agent.action_low), jnp.asarray(agent.action_high)
-    n = config.num_envs
+    n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
+    sum_names = METRIC_NAMES + ("train_return",)
+    nan = jnp.float32(jnp.nan)
 
-    def add(buffer, obs, action, step):
-        return rb.add(buffer, Transition(obs=obs, action=action, reward=step.reward,
-                                         next_obs=step.final_obs,
-                                         terminated=step.terminated.astype(jnp.float32)))
-
-    def prefill_iteration(runner: RunnerState, _):
-        key, k_act = jax.random.split(runner.key)
-        obs = runner.env.env_state.obs
-        action = jax.random.uniform(k_act, (n, agent.action_size), minval=low, maxval=high)
-        env_state, step = vec.step(runner.env, action)
-        return runner.replace(env=env_state, buffer=add(runner.buffer, obs, action, step),
-                              key=key), None
-
-
-    def iteration(runner: RunnerState, _):
-        key, k_act, k_update = jax.random.split(runner.key, 3)
-        obs = runner.env.env_state.obs
-        action = agent.act(runner.sac.actor_params, obs, k_act)
-        env_state, step = vec.step(runner.env, action)
-        buffer = add(runner.buffer, obs, action, step)
-        # All minibatches of the iteration are gathered at once, outside the update loop, so the
-        # loop never holds the buffer (XLA would copy it on every iteration).
-        k_batch, k_noise = jax.random.split(k_update)
+    def learn(sac: SACState, buffer: ReplayBuffer, key: jax.Array):
+        # All minibatches of the iteration are gathered at once, then scanned over.
+        k_batch, k_noise = jax.random.split(key)
         batches = rb.sample(buffer, k_batch, (config.updates_per_step, config.batch_size))
         sac, metrics = jax.lax.scan(
-            lambda sac, xs: sac_update(agent, sac, *xs), runner.sac,
+            lambda sac, xs: sac_update(agent, sac, *xs), sac,
             (batches, jax.random.split(k_noise, config.updates_per_step)))
-        episodes = (jnp.sum(jnp.where(step.done, step.episode_return, 0.0)),
-                    jnp.sum(step.done))
-        return (runner.replace(sac=sac, env=env_state, buffer=buffer, key=key),
-                (metrics, episodes))
+        return sac, {name: jnp.nanmean(metrics[name]) if name in metrics else nan
+                     for name in METRIC_NAMES}
 
-    def period(runner: RunnerState, index):
-        runner, (metrics, (return_sum, episode_count)) = jax.lax.scan(
-            iteration, runner, None, length=config.iterations_per_eval)
-        key, k_eval = jax.random.split(runner.key)
-        out = {name: jnp.nanmean(metrics[name]) if name in metrics else jnp.float32(jnp.nan)
-               for name in METRIC_NAMES}
-        count = jnp.sum(episode_count)
-        out["train_return"] = jnp.where(count > 0, jnp.sum(return_sum) / jnp.maximum(count, 1),
-                                        jnp.nan)
+    def evaluate_period(runner: RunnerState, index: jax.Array, key: jax.Array) -> RunnerState:
+        out = {name: total / count for name, (total, count) in runner.sums.items()}
         out["eval_return"] = jnp.mean(
-            evaluate(agent, env, runner.sac.actor_params, k_eval, config.eval_episodes))
+            evaluate(agent, env, runner.sac.actor_params, key, config.eval_episodes))
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
         if progress is not None:
             jax.debug.callback(progress, out)
-        return runner.replace(key=key), out
+        outputs = {name: runner.outputs[name].at[index].set(out[name]) for name in out}
+        sums = jax.tree_util.tree_map(jnp.zeros_like, runner.sums)
+        return runner.replace(sums=sums, outputs=outputs)
+
+    def iteration(runner: RunnerState, i: jax.Array):
+        learning = i >= prefill
+        key, k_act, k_random, k_learn, k_eval = jax.random.split(runner.key, 5)
+        obs = runner.env.env_state.obs
+        action = jnp.where(learning, agent.act(runner.sac.actor_params, obs, k_act),
+                           jax.random.uniform(k_random, (n, agent.action_size), minval=low,
+                                              maxval=high))
+        env_state, step = vec.step(runner.env, action)
+        buffer = rb.add(runner.buffer, Transition(
+            obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
+            terminated=step.terminated.astype(jnp.float32)))
+        sac, metrics = jax.lax.cond(
+            learning, lambda sac: learn(sac, buffer, k_learn),
+            lambda sac: (sac, {name: nan for name in METRIC_NAMES}), runner.sac)
+        metrics["train_return"] = jnp.sum(jnp.where(step.done, step.episode_return, 0.0))
+        counts = {name: jnp.isfinite(m).astype(jnp.float32) for name, m in metrics.items()}
+        counts["train_return"] = jnp.sum(step.done).astype(jnp.float32)
+        sums = {name: (total + jnp.where(jnp.isfinite(metrics[name]), metrics[name], 0.0),
+                       count + counts[name])
+                for name, (total, count) in runner.sums.items()}
+        runner = runner.replace(sac=sac, env=env_state, buffer=buffer, key=key, sums=sums)
+        done_in_period = i - prefill + 1
+        return jax.lax.cond(
+            learning & (done_in_period % period == 0),
+            lambda r: evaluate_period(r, done_in_period // period - 1, k_eval),
+            lambda r: r, runner), None
 
     def train(key: jax.Array):
         k_sac, k_env, k_run = jax.random.split(key, 3)
@@ -115,10 +125,15 @@ def make_train(config: SACConfig,
                              action=jnp.zeros(agent.action_size, jnp.float32),
                              reward=jnp.float32(0), next_obs=env_state.env_state.obs[0],
                              terminated=jnp.float32(0))
-        runner = RunnerState(sac=agent.init(k_sac), env=env_state,
-                             buffer=rb.init(config.buffer_size, example), key=k_run)
-        runner, _ = jax.lax.scan(prefill_iteration, runner, None,
-                                 length=config.prefill_iterations)
-        return jax.lax.scan(period, runner, jnp.arange(config.num_evals))
+        zero = jnp.float32(0)
+        runner = RunnerState(
+            sac=agent.init(k_sac), env=env_state, buffer=rb.init(config.buffer_size, example),
+            key=k_run, sums={name: (zero, zero) for name in sum_names},
+            outputs={"env_steps": jnp.zeros(config.num_evals, jnp.int32),
+                     **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
+                        for name in sum_names + ("eval_return",)}})
+        runner, _ = jax.lax.scan(iteration, runner,
+                                 jnp.arange(prefill + config.num_evals * period))
+        return runner, runner.outputs
 
     return train
