@@ -211,3 +211,18 @@ class SACConfig:
         if unknown:
             raise ValueError(f"SACConfig has no field(s) {sorted(unknown)}")
         return dataclasses.replace(self, **changes)
+
+
+def field_docs() -> dict:
+    """{field name: its docstring} for `SACConfig`, read from this module's source."""
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(SACConfig))
+    body = tree.body[0].body
+    docs = {}
+    for node, after in zip(body, body[1:] + [None]):
+        if (isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr)
+                and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
+            docs[node.target.id] = " ".join(after.value.value.split())
+    return docs

@@ -27,16 +27,26 @@ PRESETS = {
         log_std_mode="clip", log_std_min=-20.0, log_std_max=2.0,
         log_prob_correction="epsilon"),
     "pendulum": SACConfig(
-        env="Pendulum-v1", total_steps=20_000, learning_starts=1_000, batch_size=256,
+        env="Pendulum-v1", total_steps=11_000, learning_starts=1_000, batch_size=256,
         eval_every=2_000, gamma=0.99, tau=0.005, actor_lr=3e-4, critic_lr=3e-4, alpha_lr=3e-4,
         actor_hidden=(64, 64, 64), critic_hidden=(64, 64, 64), init="xavier",
         separate_log_std_network=True, log_std_mode="clip", log_std_min=-20.0,
         log_std_max=2.0, log_prob_correction="epsilon", alpha_init=0.5, log_alpha_init=0.0,
         alpha_loss="log_alpha", alpha_log_prob="reuse"),
     "fast": SACConfig(
-        env="InvertedPendulum-v5", num_envs=8, total_steps=20_000, learning_starts=1_024,
-        eval_every=1_024, batch_size=256, updates_per_step=1, actor_lr=1e-3, critic_lr=1e-3,
-        alpha_lr=1e-3, actor_hidden=(64, 64), critic_hidden=(64, 64),
-        log_std_mode="tanh", log_prob_correction="exact"),
+        env="InvertedPendulum-v5", num_envs=8, updates_per_step=8, total_steps=20_480,
+        learning_starts=2_048, buffer_size=20_480, batch_size=128, eval_every=2_048,
+        eval_episodes=5, actor_lr=1e-3, critic_lr=1e-3, alpha_lr=1e-3,
+        actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
+        log_prob_correction="exact"),
 }
 DEFAULT_PRESET = "fast"
+
+SOLVED_RETURN = {
+    "InvertedPendulum-v5": 950.0,
+    "InvertedPendulum-v4": 950.0,
+    "InvertedPendulumBullet-v0": 950.0,
+    "InvertedDoublePendulum-v5": 9000.0,
+    "Pendulum-v1": -250.0,
+}
+"""Mean deterministic evaluation return at which a task counts as solved."""

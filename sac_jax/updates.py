@@ -7,7 +7,7 @@ Every update takes one Adam step on its own parameters and leaves the rest of th
 
 from __future__ import annotations
 
-from typing import Dict, Tuple, Union
+from typing import Callable, Dict, Tuple, Union
 
 import jax
 import jax.numpy as jnp
@@ -40,9 +40,9 @@ def polyak_update(target, online, tau: float):
     return jax.tree_util.tree_map(lambda t, o: tau * o + (1.0 - tau) * t, target, online)
 
 
-def update_critic(agent: Agent, state: SACState, batch: Transition,
-                  key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
-    """One Adam step on J_Q (see `losses.critic_loss`) for all N critics at once.
+def critic_objective(agent: Agent, state: SACState, batch: Transition,
+                     key_or_noise: jax.Array) -> Callable:
+    """params -> (J_Q(params), Q (N, B)) for a fixed target (see `losses.critic_loss`).
 
     v2 target: r + gamma (1 - d)(min_j Q-bar_j(s', a') - alpha log pi(a'|s')), a' = f(eps; s'),
     eps (B, A). v1 target: c r + gamma (1 - d) V-bar(s') (the noise is unused).
@@ -58,31 +58,44 @@ def update_critic(agent: Agent, state: SACState, batch: Transition,
     target = jax.lax.stop_gradient(losses.soft_q_target(
         batch.reward, batch.terminated, next_value, cfg.gamma, cfg.reward_scale))
 
-    def loss_fn(params):
+    def objective(params):
         q = agent.critic.apply(params, batch.obs, batch.action)
         return losses.critic_loss(q, target, cfg.loss_coef), q
 
-    (loss, q), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.critic_params)
+    return objective
+
+
+def update_critic(agent: Agent, state: SACState, batch: Transition,
+                  key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
+    """One Adam step on J_Q for all N critics at once (see `critic_objective`)."""
+    (loss, q), grads = jax.value_and_grad(
+        critic_objective(agent, state, batch, key_or_noise), has_aux=True)(state.critic_params)
     params, opt_state = _adam_step(agent.critic_optimizer, state.critic_params, grads,
                                    state.critic_opt_state)
     return (state.replace(critic_params=params, critic_opt_state=opt_state),
             {"critic_loss": loss, "q": jnp.mean(q)})
 
 
-def update_actor(agent: Agent, state: SACState, obs: jax.Array,
-                 key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
-    """One Adam step on J_pi = mean(alpha log pi(a~|s) - min_i Q_i(s, a~)), a~ = f(eps; s).
-
-    obs (B, O), eps (B, A). metrics["log_prob"] (B,) is log pi(a~|s) before the step.
-    """
+def actor_objective(agent: Agent, state: SACState, obs: jax.Array,
+                    key_or_noise: jax.Array) -> Callable:
+    """params -> (J_pi(params), log pi(a~|s) (B,)), J_pi = mean(alpha log pi(a~|s) -
+    min_i Q_i(s, a~)), a~ = f_params(eps; s), obs (B, O), eps (B, A)."""
     noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
 
-    def loss_fn(params):
+    def objective(params):
         action, log_prob = agent.sample_action(params, obs, noise)
         q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
         return losses.actor_loss(log_prob, q_min, state.alpha), log_prob
 
-    (loss, log_prob), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.actor_params)
+    return objective
+
+
+def update_actor(agent: Agent, state: SACState, obs: jax.Array,
+                 key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
+    """One Adam step on J_pi (see `actor_objective`). metrics["log_prob"] (B,) is log pi(a~|s)
+    before the step."""
+    (loss, log_prob), grads = jax.value_and_grad(
+        actor_objective(agent, state, obs, key_or_noise), has_aux=True)(state.actor_params)
     params, opt_state = _adam_step(agent.actor_optimizer, state.actor_params, grads,
                                    state.actor_opt_state)
     return (state.replace(actor_params=params, actor_opt_state=opt_state),
@@ -104,18 +117,23 @@ def update_temperature(agent: Agent, state: SACState,
             {"alpha_loss": loss, "alpha": alpha})
 
 
-def update_value(agent: Agent, state: SACState, obs: jax.Array,
-                 key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
-    """One Adam step on J_V (see `losses.value_loss`), a~ = f(eps; s), obs (B, O), eps (B, A)."""
+def value_objective(agent: Agent, state: SACState, obs: jax.Array,
+                    key_or_noise: jax.Array) -> Callable:
+    """params -> J_V(params) (see `losses.value_loss`), target min_i Q_i(s, a~) -
+    alpha log pi(a~|s) with a~ = f(eps; s), obs (B, O), eps (B, A)."""
     noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
     action, log_prob = agent.sample_action(state.actor_params, obs, noise)
     q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
     target = jax.lax.stop_gradient(q_min - state.alpha * log_prob)
+    return lambda params: losses.value_loss(agent.value.apply(params, obs), target,
+                                            agent.config.loss_coef)
 
-    def loss_fn(params):
-        return losses.value_loss(agent.value.apply(params, obs), target, agent.config.loss_coef)
 
-    loss, grads = jax.value_and_grad(loss_fn)(state.value_params)
+def update_value(agent: Agent, state: SACState, obs: jax.Array,
+                 key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
+    """One Adam step on J_V (see `value_objective`)."""
+    loss, grads = jax.value_and_grad(value_objective(agent, state, obs, key_or_noise))(
+        state.value_params)
     params, opt_state = _adam_step(agent.value_optimizer, state.value_params, grads,
                                    state.value_opt_state)
     return state.replace(value_params=params, value_opt_state=opt_state), {"value_loss": loss}

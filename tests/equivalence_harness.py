@@ -35,7 +35,8 @@ import torch
 
 import sac_jax
 from sac_jax import losses
-from sac_jax.updates import update_actor, update_critic, update_temperature, update_value
+from sac_jax.updates import (actor_objective, critic_objective, update_actor, update_critic,
+                             update_temperature, update_value, value_objective)
 from tests.reference import cleanrl_sac, pendulum_sac, sac_v1, transfer
 
 BATCH = 64
@@ -142,37 +143,6 @@ def reference_update(family: str, ref, b, noise, count: int, dtype):
     return ref.learn(batch, {"value": t(noise["value"]), "actor": t(noise["actor"][0])})
 
 
-# ---------------------------------------------------------------------------- JAX losses
-def _critic_loss_fn(agent, state, batch, eps):
-    cfg = agent.config
-    if cfg.variant == "v2":
-        next_action, next_log_prob = agent.sample_action(state.actor_params, batch.next_obs, eps)
-        q_next = agent.critic.apply(state.critic_target_params, batch.next_obs, next_action)
-        next_value = jnp.min(q_next, axis=0) - state.alpha * next_log_prob
-    else:
-        next_value = agent.value.apply(state.value_target_params, batch.next_obs)
-    target = jax.lax.stop_gradient(losses.soft_q_target(
-        batch.reward, batch.terminated, next_value, cfg.gamma, cfg.reward_scale))
-    return lambda params: losses.critic_loss(agent.critic.apply(params, batch.obs, batch.action),
-                                             target, cfg.loss_coef)
-
-
-def _actor_loss_fn(agent, state, obs, eps):
-    def loss(params):
-        action, log_prob = agent.sample_action(params, obs, eps)
-        q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
-        return losses.actor_loss(log_prob, q_min, state.alpha), log_prob
-    return loss
-
-
-def _value_loss_fn(agent, state, obs, eps):
-    action, log_prob = agent.sample_action(state.actor_params, obs, eps)
-    q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
-    target = jax.lax.stop_gradient(q_min - state.alpha * log_prob)
-    return lambda params: losses.value_loss(agent.value.apply(params, obs), target,
-                                            agent.config.loss_coef)
-
-
 @functools.partial(jax.jit, static_argnums=0)
 def jax_probe(agent, state, batch, noise):
     """Losses and gradients of one full update in `update_order` (the actor block assumed to
@@ -181,17 +151,18 @@ def jax_probe(agent, state, batch, noise):
                               "alpha_loss": [], "alpha_grad": []}
     for name in cfg.update_order:
         if name == "critic":
-            out["critic_loss"], out["critic_grad"] = jax.value_and_grad(
-                _critic_loss_fn(agent, state, batch, noise["critic"]))(state.critic_params)
+            (out["critic_loss"], _), out["critic_grad"] = jax.value_and_grad(
+                critic_objective(agent, state, batch, noise["critic"]),
+                has_aux=True)(state.critic_params)
             state, _ = update_critic(agent, state, batch, noise["critic"])
         elif name == "value":
             out["value_loss"], out["value_grad"] = jax.value_and_grad(
-                _value_loss_fn(agent, state, batch.obs, noise["value"]))(state.value_params)
+                value_objective(agent, state, batch.obs, noise["value"]))(state.value_params)
             state, _ = update_value(agent, state, batch.obs, noise["value"])
         else:
             for k in range(cfg.policy_frequency):
                 (loss, log_pi), grad = jax.value_and_grad(
-                    _actor_loss_fn(agent, state, batch.obs, noise["actor"][k]),
+                    actor_objective(agent, state, batch.obs, noise["actor"][k]),
                     has_aux=True)(state.actor_params)
                 out["actor_loss"].append(loss)
                 out["actor_grad"].append(grad)

@@ -15,7 +15,7 @@ normal noise (u = mean + eps * std, which is what `Normal.rsample` computes).
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 import torch

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# GPU figures for BENCHMARKS.md, run on a lent H100/H200 through the device tool, where jax (CUDA)
+# and torch are installed but mujoco, mujoco-mjx, flax, optax and distrax travel as wheels in
+# .whl/ (see BENCHMARKS.md). Usage: bash benchmarks/gpu.sh env|train
+set -uo pipefail
+python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
+  --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
+export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
+nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader
+python3 -c "import jax, mujoco, flax, optax, distrax; print('jax', jax.__version__, jax.devices())"
+case "$1" in
+  env)
+    python3 benchmarks/env_throughput.py --sizes 1024 16384 131072 --steps 200 --repeats 3 \
+      --skip-baselines ;;
+  train)
+    for seeds in 1 256; do
+      python3 scripts/train.py --seeds "$seeds" --cache-dir /tmp/jaxcache 2>&1 | tail -4
+    done ;;
+esac

@@ -1,0 +1,121 @@
+"""Running a configuration from the host: compile once, train all seeds in one program, follow
+progress, time it, and write a run directory."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import os
+import shutil
+import tempfile
+import time
+from typing import Callable, Dict, List, Optional
+
+import jax
+import numpy as np
+
+from sac_jax.config import SACConfig
+from sac_jax.presets import SOLVED_RETURN
+from sac_jax.train import make_train
+
+
+@dataclasses.dataclass
+class RunResult:
+    """`metrics`: numpy arrays (seeds, num_evals); `summary`: plain JSON-able figures."""
+
+    state: object
+    metrics: Dict[str, np.ndarray]
+    summary: dict
+
+
+def _nanmean(values) -> float:
+    """Mean of the finite values, NaN if there are none (without numpy's warning)."""
+    finite = [v for v in values if np.isfinite(v)]
+    return float(np.mean(finite)) if finite else float("nan")
+
+
+def solved_at(eval_returns: np.ndarray, env_steps: np.ndarray, threshold: float) -> Optional[int]:
+    """First environment step whose evaluation return reaches `threshold`, or None."""
+    hits = np.nonzero(eval_returns >= threshold)[0]
+    return int(env_steps[hits[0]]) if hits.size else None
+
+
+def run_training(config: SACConfig, seeds: int = 1, seed: int = 0,
+                 on_point: Optional[Callable[[int, dict, float, int], None]] = None) -> RunResult:
+    """Trains `seeds` seeds (keys split from `seed`) in one jitted, vmapped program.
+
+    `on_point(env_steps, mean_metrics, elapsed_s, env_steps)` is called at every evaluation point
+    once all seeds reached it, with metrics averaged over seeds. The summary holds compile and
+    run seconds, final evaluation returns, the first solving step per seed and the wall time
+    (compile excluded) at which the mean over seeds first reached the task's threshold.
+    """
+    threshold = SOLVED_RETURN.get(config.env)
+    pending: Dict[int, List[dict]] = {}
+    walls: Dict[int, float] = {}
+    clock = {"start": 0.0}
+
+    def progress(point):
+        point = {k: float(np.asarray(v)) for k, v in point.items()}
+        step = int(point["env_steps"])
+        pending.setdefault(step, []).append(point)
+        if len(pending[step]) == seeds:
+            points = pending.pop(step)
+            mean = {k: _nanmean([p[k] for p in points]) for k in point}
+            walls[step] = time.perf_counter() - clock["start"]
+            if on_point is not None:
+                on_point(step, mean, walls[step], step)
+
+    train = jax.jit(jax.vmap(make_train(config, progress)))
+    keys = jax.random.split(jax.random.key(seed), seeds)
+    t0 = time.perf_counter()
+    compiled = train.lower(keys).compile()
+    compile_s = time.perf_counter() - t0
+    clock["start"] = time.perf_counter()
+    state, metrics = jax.block_until_ready(compiled(keys))
+    run_s = time.perf_counter() - clock["start"]
+    metrics = {k: np.asarray(v) for k, v in metrics.items()}
+    steps = metrics["env_steps"][0]
+    mean_eval = metrics["eval_return"].mean(axis=0)
+    solved_mean = solved_at(mean_eval, steps, threshold) if threshold is not None else None
+    summary = {
+        "env": config.env,
+        "seeds": seeds,
+        "total_steps": int(steps[-1]),
+        "eval_return": [float(r) for r in metrics["eval_return"][:, -1]],
+        "solved_threshold": threshold,
+        "solved_at_step": [solved_at(r, steps, threshold) if threshold is not None else None
+                           for r in metrics["eval_return"]],
+        "solved_wall_s": (round(walls[solved_mean], 3)
+                          if solved_mean is not None and solved_mean in walls else None),
+        "compile_s": round(compile_s, 3),
+        "run_s": round(run_s, 3),
+        "wall_s": round(compile_s + run_s, 3),
+    }
+    return RunResult(state=state, metrics=metrics, summary=summary)
+
+
+def write_run_dir(out: str, config: SACConfig, preset: str, result: RunResult) -> None:
+    """Writes config.json, metrics.csv and summary.json into a new directory `out`, built under
+    a temporary name and renamed at the end, so `out` is either complete or absent."""
+    parent = os.path.dirname(os.path.abspath(out))
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=".tmp-run-", dir=parent)
+    try:
+        with open(os.path.join(tmp, "config.json"), "w") as f:
+            json.dump(dataclasses.asdict(config), f, indent=2)
+        names = ["env_steps", "eval_return", "train_return"] + sorted(
+            k for k in result.metrics if k not in ("env_steps", "eval_return", "train_return"))
+        with open(os.path.join(tmp, "metrics.csv"), "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(["seed"] + names)
+            seeds, points = result.metrics["eval_return"].shape
+            for s in range(seeds):
+                for p in range(points):
+                    writer.writerow([s] + [result.metrics[k][s, p].item() for k in names])
+        with open(os.path.join(tmp, "summary.json"), "w") as f:
+            json.dump(dict(result.summary, preset=preset), f, indent=2)
+        os.rename(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

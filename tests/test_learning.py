@@ -1,0 +1,29 @@
+"""Learning tests: each preset trains with the settings a user gets, and must reach the task's
+threshold (deterministic evaluation return, mean over `eval_episodes` episodes)."""
+
+import numpy as np
+import pytest
+
+from sac_jax import PRESETS
+from sac_jax.run import run_training
+
+pytestmark = pytest.mark.slow
+
+
+def final_returns(config, seeds):
+    return run_training(config, seeds=seeds).metrics["eval_return"][:, -1]
+
+
+def test_fast_preset_solves_inverted_pendulum_v5_for_two_of_two_seeds():
+    returns = final_returns(PRESETS["fast"], seeds=2)
+    assert np.all(returns >= 950.0), returns
+
+
+def test_pendulum_preset_reaches_minus_250_on_pendulum_v1():
+    returns = final_returns(PRESETS["pendulum"], seeds=1)
+    assert np.all(returns >= -250.0), returns
+
+
+def test_v1_preset_learns_inverted_pendulum():
+    returns = final_returns(PRESETS["v1"], seeds=1)
+    assert np.all(returns >= 950.0), returns
