@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # GPU figures for BENCHMARKS.md, run on a lent H100/H200 through the device tool, where jax (CUDA)
 # and torch are installed but mujoco, mujoco-mjx, flax, optax and distrax travel as wheels in
-# .whl/ (see BENCHMARKS.md). Usage: bash benchmarks/gpu.sh env|train
+# .whl/ (see BENCHMARKS.md). Usage: bash benchmarks/gpu.sh env|updates|train
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
@@ -12,6 +12,8 @@ case "$1" in
   env)
     python3 benchmarks/env_throughput.py --sizes 1024 16384 131072 --steps 200 --repeats 3 \
       --skip-baselines ;;
+  updates)
+    python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 ;;
   train)
     for seeds in 1 256; do
       python3 scripts/train.py --seeds "$seeds" --cache-dir /tmp/jaxcache 2>&1 | tail -4

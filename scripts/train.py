@@ -94,9 +94,19 @@ def main(argv=None) -> int:
 
     result: RunResult = run_training(config, seeds=args.seeds, seed=args.seed, on_point=on_point)
     s = result.summary
-    print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; final eval return per seed "
-          f"{[round(r, 1) for r in s['eval_return']]}; solved at step {s['solved_at_step']} "
-          f"(wall {s['solved_wall_s']})", flush=True)
+    returns, solved = s["eval_return"], s["solved_at_step"]
+    if len(returns) <= 8:
+        outcome = (f"final eval return per seed {[round(r, 1) for r in returns]}; "
+                   f"solved at step {solved}")
+    else:
+        threshold = s["solved_threshold"]
+        reached = sum(r >= threshold for r in returns) if threshold is not None else "-"
+        outcome = (f"final eval return mean {sum(returns) / len(returns):.1f} (min "
+                   f"{min(returns):.1f}, max {max(returns):.1f}); {reached}/{len(returns)} seeds "
+                   f"at >= {threshold} at the end, {sum(x is not None for x in solved)} solved "
+                   "at some evaluation")
+    print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; {outcome} "
+          f"(mean over seeds solved after {s['solved_wall_s']} s of training)", flush=True)
     if args.out:
         write_run_dir(args.out, config, args.preset, result)
         print(f"wrote {args.out}", flush=True)

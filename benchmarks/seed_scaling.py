@@ -1,0 +1,80 @@
+"""Gradient updates/s of `sac_update` for many seeds vmapped in one program (the `fast` preset's
+networks and batch unless overridden), each seed sampling its own batches from its own buffer.
+
+    python benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+
+import sac_jax  # noqa: E402
+from sac_jax import replay_buffer as rb  # noqa: E402
+
+CAPACITY = 20_480
+
+
+def updates_per_s(config, seeds, updates, repeats):
+    agent, _ = sac_jax.train.agent_for(config)
+    o, a = agent.observation_size, agent.action_size
+
+    def run(key):
+        k_data, k_init, k_run = jax.random.split(key, 3)
+        data = sac_jax.Transition(
+            obs=jax.random.normal(k_data, (CAPACITY, o)), action=jnp.zeros((CAPACITY, a)),
+            reward=jnp.ones(CAPACITY), next_obs=jax.random.normal(k_data, (CAPACITY, o)),
+            terminated=jnp.zeros(CAPACITY))
+        buffer = rb.ReplayBuffer(data, jnp.int32(0), jnp.int32(CAPACITY))
+
+        def one(state, key):
+            k_batch, k_noise = jax.random.split(key)
+            batch = rb.sample(buffer, k_batch, config.batch_size)
+            return sac_jax.sac_update(agent, state, batch, k_noise)[0], None
+
+        state = jax.lax.scan(one, agent.init(k_init), jax.random.split(k_run, updates))[0]
+        # A result that depends on every parameter, so no update can be optimised away.
+        return sum(jnp.sum(x) for x in jax.tree_util.tree_leaves(
+            (state.actor_params, state.critic_params)))
+
+    f = jax.jit(jax.vmap(run))
+    keys = jax.random.split(jax.random.key(0), seeds)
+    t = time.perf_counter()
+    jax.block_until_ready(f(keys))
+    compile_and_first = time.perf_counter() - t
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        jax.block_until_ready(f(keys))
+        times.append(time.perf_counter() - t)
+    return seeds * updates / statistics.median(times), compile_and_first
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--preset", default="fast")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 16, 256, 1024])
+    parser.add_argument("--updates", type=int, default=200)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    config = sac_jax.PRESETS[args.preset]
+    print(f"jax {jax.__version__} on {jax.devices()[0].device_kind}; preset {args.preset}: "
+          f"batch {config.batch_size}, actor {config.actor_hidden}, critic {config.critic_hidden}")
+    print("| seeds | updates/s (all seeds) | updates/s per seed | compile + first run s |")
+    print("| ---: | ---: | ---: | ---: |")
+    for seeds in args.seeds:
+        rate, first = updates_per_s(config, seeds, args.updates, args.repeats)
+        print(f"| {seeds} | {rate:,.0f} | {rate / seeds:,.0f} | {first:.1f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
