@@ -49,6 +49,11 @@ class Env:
     by 0 before it reaches the physics, the remaining components are clipped to
     ``[action_low, action_high]`` (as MuJoCo clamps ``ctrl`` to ``ctrlrange``), and the step
     reports ``terminated=True``.  The state therefore stays finite.
+
+    ``reset`` and ``step`` of every instance are ``jax.jit``-wrapped once at construction: a
+    training program calls them from several places (vectorised stepping, auto-reset,
+    evaluation), and a jitted function is traced once per input shape and reused at each call
+    site, which cuts the Python tracing time of an MJX training program.
     """
 
     def __init__(
@@ -66,6 +71,8 @@ class Env:
         self._action_high = np.asarray(action_high, dtype=np.float32).reshape(-1)
         self._max_episode_steps = int(max_episode_steps)
         self._dt = float(dt)
+        self.reset = jax.jit(self.reset)
+        self.step = jax.jit(self.step)
 
     @property
     def name(self) -> str:

@@ -10,14 +10,14 @@ import os
 import shutil
 import tempfile
 import time
-from typing import Callable, Dict, List, Optional
+from typing import Callable, Dict, Optional
 
 import jax
 import numpy as np
 
 from sac_jax.config import SACConfig
 from sac_jax.presets import SOLVED_RETURN
-from sac_jax.train import make_train
+from sac_jax.train import make_train_parts
 
 
 @dataclasses.dataclass
@@ -42,39 +42,42 @@ def solved_at(eval_returns: np.ndarray, env_steps: np.ndarray, threshold: float)
 
 
 def run_training(config: SACConfig, seeds: int = 1, seed: int = 0,
-                 on_point: Optional[Callable[[int, dict, float, int], None]] = None) -> RunResult:
-    """Trains `seeds` seeds (keys split from `seed`) in one jitted, vmapped program.
+                 on_point: Optional[Callable[[int, dict, float], None]] = None) -> RunResult:
+    """Trains `seeds` seeds (keys split from `seed`) vmapped in one program, driven from the host
+    one chunk at a time (`sac_jax.train.make_train_parts`): the compiled chunk holds no host
+    callback, so JAX's persistent compilation cache keeps it, and progress is read between
+    chunks.
 
-    `on_point(env_steps, mean_metrics, elapsed_s, env_steps)` is called at every evaluation point
-    once all seeds reached it, with metrics averaged over seeds. The summary holds compile and
-    run seconds, final evaluation returns, the first solving step per seed and the wall time
-    (compile excluded) at which the mean over seeds first reached the task's threshold.
+    `on_point(env_steps, mean_metrics, elapsed_s)` is called at every evaluation point with the
+    metrics averaged over seeds. The summary holds compile and run seconds, final evaluation
+    returns, the first solving step per seed, and the training wall time (compile excluded) at
+    which the mean over seeds first reached the task's threshold.
     """
     threshold = SOLVED_RETURN.get(config.env)
-    pending: Dict[int, List[dict]] = {}
-    walls: Dict[int, float] = {}
-    clock = {"start": 0.0}
-
-    def progress(point):
-        point = {k: float(np.asarray(v)) for k, v in point.items()}
-        step = int(point["env_steps"])
-        pending.setdefault(step, []).append(point)
-        if len(pending[step]) == seeds:
-            points = pending.pop(step)
-            mean = {k: _nanmean([p[k] for p in points]) for k in point}
-            walls[step] = time.perf_counter() - clock["start"]
-            if on_point is not None:
-                on_point(step, mean, walls[step], step)
-
-    train = jax.jit(jax.vmap(make_train(config, progress)))
+    parts = make_train_parts(config)
+    init = jax.jit(jax.vmap(parts.init))
+    chunk = jax.jit(jax.vmap(parts.chunk), donate_argnums=0)
     keys = jax.random.split(jax.random.key(seed), seeds)
     t0 = time.perf_counter()
-    compiled = train.lower(keys).compile()
+    runner = init(keys)
+    chunk = chunk.lower(runner).compile()
     compile_s = time.perf_counter() - t0
-    clock["start"] = time.perf_counter()
-    state, metrics = jax.block_until_ready(compiled(keys))
-    run_s = time.perf_counter() - clock["start"]
-    metrics = {k: np.asarray(v) for k, v in metrics.items()}
+    start = time.perf_counter()
+    walls: Dict[int, float] = {}
+    evals_done = 0
+    for _ in range(parts.num_chunks):
+        runner = chunk(runner)
+        iterations = int(runner.iteration[0])  # waits for the chunk
+        evals = max(0, (iterations - config.prefill_iterations) // config.iterations_per_eval)
+        if evals > evals_done:
+            evals_done = evals
+            point = jax.device_get({k: v[:, evals - 1] for k, v in runner.outputs.items()})
+            step = int(point["env_steps"][0])
+            walls[step] = time.perf_counter() - start
+            if on_point is not None:
+                on_point(step, {k: _nanmean(v) for k, v in point.items()}, walls[step])
+    run_s = time.perf_counter() - start
+    metrics = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
     steps = metrics["env_steps"][0]
     mean_eval = metrics["eval_return"].mean(axis=0)
     solved_mean = solved_at(mean_eval, steps, threshold) if threshold is not None else None
@@ -86,13 +89,12 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0,
         "solved_threshold": threshold,
         "solved_at_step": [solved_at(r, steps, threshold) if threshold is not None else None
                            for r in metrics["eval_return"]],
-        "solved_wall_s": (round(walls[solved_mean], 3)
-                          if solved_mean is not None and solved_mean in walls else None),
+        "solved_wall_s": round(walls[solved_mean], 3) if solved_mean is not None else None,
         "compile_s": round(compile_s, 3),
         "run_s": round(run_s, 3),
         "wall_s": round(compile_s + run_s, 3),
     }
-    return RunResult(state=state, metrics=metrics, summary=summary)
+    return RunResult(state=runner, metrics=metrics, summary=summary)
 
 
 def write_run_dir(out: str, config: SACConfig, preset: str, result: RunResult) -> None:

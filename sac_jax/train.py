@@ -10,13 +10,20 @@ One `lax.scan` runs all iterations; iteration i:
 
 The environment step, the update and the evaluation each appear once in the traced program
 (prefill and training share the iteration; phases switch with `lax.cond` on the iteration
-index, which stays a real branch under `vmap`), which keeps compile time down.
+count, which stays a real branch under `vmap`), which keeps compile time down.
 `jax.jit(train)` compiles one program; `jax.jit(jax.vmap(train))(keys)` trains many seeds in it.
+
+The same loop comes in pieces from `make_train_parts`: `init(key)` and `chunk(runner)`, a scan
+over `chunk_iterations` iterations (a divisor of both the prefill and the evaluation period, so
+every evaluation falls at the end of a chunk). `train` scans `chunk`; a host loop can instead
+call a jitted `chunk` repeatedly to report progress between chunks, with no host callback in
+the program, so JAX's persistent compilation cache can keep it (`sac_jax.run` does this).
 """
 
 from __future__ import annotations
 
-from typing import Callable, Dict, Optional, Tuple
+import math
+from typing import Callable, Dict, NamedTuple, Optional, Tuple
 
 import flax.struct
 import jax
@@ -34,15 +41,27 @@ METRIC_NAMES = ("critic_loss", "q", "actor_loss", "entropy", "alpha_loss", "alph
 
 
 class RunnerState(flax.struct.PyTreeNode):
-    """Everything a run carries between iterations. `sums` accumulates the current evaluation
-    period's metrics as (sum, count) pairs; `outputs` holds one slot per evaluation point."""
+    """Everything a run carries between iterations. `iteration` counts iterations done;
+    `sums` accumulates the current evaluation period's metrics as (sum, count) pairs;
+    `outputs` holds one slot per evaluation point."""
 
     sac: SACState
     env: envs.VectorState
     buffer: ReplayBuffer
     key: jax.Array
+    iteration: jax.Array
     sums: Dict[str, jax.Array]
     outputs: Dict[str, jax.Array]
+
+
+class TrainParts(NamedTuple):
+    """`init(key) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations` iterations
+    (evaluating where an evaluation period ends); `num_chunks` chunks make the run."""
+
+    init: Callable[[jax.Array], RunnerState]
+    chunk: Callable[[RunnerState], RunnerState]
+    chunk_iterations: int
+    num_chunks: int
 
 
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:
@@ -52,21 +71,15 @@ def agent_for(config: SACConfig) -> Tuple[Agent, object]:
                       env.action_high), env
 
 
-def make_train(config: SACConfig,
-               progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None):
-    """Returns `train(key) -> (RunnerState, metrics)`.
-
-    metrics: arrays with a leading axis of `config.num_evals` evaluation points:
-    `env_steps` (environment steps done), `eval_return` (mean deterministic return over
-    `eval_episodes`), `train_return` (mean return of training episodes ended in the period, NaN
-    if none), and the period means of the update metrics in `METRIC_NAMES` (NaN where unused).
-    `progress`, if given, is called on the host with each evaluation point's metrics (through
-    `jax.debug.callback`; under `vmap` once per seed).
-    """
+def make_train_parts(config: SACConfig,
+                     progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None
+                     ) -> TrainParts:
+    """The training loop as `TrainParts` (see the module docstring and `make_train`)."""
     agent, env = agent_for(config)
     vec = envs.VectorEnv(env, config.num_envs)
     low, high = jnp.asarray(agent.action_low), jnp.asarray(agent.action_high)
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
+    chunk_iterations = math.gcd(prefill, period)
     sum_names = METRIC_NAMES + ("train_return",)
     nan = jnp.float32(jnp.nan)
 
@@ -80,20 +93,22 @@ def make_train(config: SACConfig,
         return sac, {name: jnp.nanmean(metrics[name]) if name in metrics else nan
                      for name in METRIC_NAMES}
 
-    def evaluate_period(runner: RunnerState, index: jax.Array, key: jax.Array) -> RunnerState:
+    def evaluate_period(runner: RunnerState) -> RunnerState:
+        index = (runner.iteration - prefill) // period - 1
+        key, k_eval = jax.random.split(runner.key)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
         out["eval_return"] = jnp.mean(
-            evaluate(agent, env, runner.sac.actor_params, key, config.eval_episodes))
+            evaluate(agent, env, runner.sac.actor_params, k_eval, config.eval_episodes))
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
         if progress is not None:
             jax.debug.callback(progress, out)
         outputs = {name: runner.outputs[name].at[index].set(out[name]) for name in out}
         sums = jax.tree_util.tree_map(jnp.zeros_like, runner.sums)
-        return runner.replace(sums=sums, outputs=outputs)
+        return runner.replace(key=key, sums=sums, outputs=outputs)
 
-    def iteration(runner: RunnerState, i: jax.Array):
-        learning = i >= prefill
-        key, k_act, k_random, k_learn, k_eval = jax.random.split(runner.key, 5)
+    def iteration(runner: RunnerState, _):
+        learning = runner.iteration >= prefill
+        key, k_act, k_random, k_learn = jax.random.split(runner.key, 4)
         obs = runner.env.env_state.obs
         action = jnp.where(learning, agent.act(runner.sac.actor_params, obs, k_act),
                            jax.random.uniform(k_random, (n, agent.action_size), minval=low,
@@ -111,14 +126,16 @@ def make_train(config: SACConfig,
         sums = {name: (total + jnp.where(jnp.isfinite(metrics[name]), metrics[name], 0.0),
                        count + counts[name])
                 for name, (total, count) in runner.sums.items()}
-        runner = runner.replace(sac=sac, env=env_state, buffer=buffer, key=key, sums=sums)
-        done_in_period = i - prefill + 1
-        return jax.lax.cond(
-            learning & (done_in_period % period == 0),
-            lambda r: evaluate_period(r, done_in_period // period - 1, k_eval),
-            lambda r: r, runner), None
+        return runner.replace(sac=sac, env=env_state, buffer=buffer, key=key, sums=sums,
+                              iteration=runner.iteration + 1), None
 
-    def train(key: jax.Array):
+    def chunk(runner: RunnerState) -> RunnerState:
+        runner, _ = jax.lax.scan(iteration, runner, None, length=chunk_iterations)
+        after_prefill = runner.iteration - prefill
+        return jax.lax.cond((after_prefill > 0) & (after_prefill % period == 0),
+                            evaluate_period, lambda r: r, runner)
+
+    def init(key: jax.Array) -> RunnerState:
         k_sac, k_env, k_run = jax.random.split(key, 3)
         env_state = vec.reset(k_env)
         example = Transition(obs=env_state.env_state.obs[0],
@@ -126,14 +143,34 @@ def make_train(config: SACConfig,
                              reward=jnp.float32(0), next_obs=env_state.env_state.obs[0],
                              terminated=jnp.float32(0))
         zero = jnp.float32(0)
-        runner = RunnerState(
+        return RunnerState(
             sac=agent.init(k_sac), env=env_state, buffer=rb.init(config.buffer_size, example),
-            key=k_run, sums={name: (zero, zero) for name in sum_names},
+            key=k_run, iteration=jnp.int32(0), sums={name: (zero, zero) for name in sum_names},
             outputs={"env_steps": jnp.zeros(config.num_evals, jnp.int32),
                      **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
                         for name in sum_names + ("eval_return",)}})
-        runner, _ = jax.lax.scan(iteration, runner,
-                                 jnp.arange(prefill + config.num_evals * period))
+
+    total = prefill + config.num_evals * period
+    return TrainParts(init, chunk, chunk_iterations, total // chunk_iterations)
+
+
+def make_train(config: SACConfig,
+               progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None):
+    """Returns `train(key) -> (RunnerState, metrics)`, the whole run as one scan.
+
+    metrics: arrays with a leading axis of `config.num_evals` evaluation points:
+    `env_steps` (environment steps done), `eval_return` (mean deterministic return over
+    `eval_episodes`), `train_return` (mean return of training episodes ended in the period, NaN
+    if none), and the period means of the update metrics in `METRIC_NAMES` (NaN where unused).
+    `progress`, if given, is called on the host with each evaluation point's metrics (through
+    `jax.debug.callback`; under `vmap` once per seed). A program with a host callback is not
+    kept by JAX's persistent compilation cache; `sac_jax.run` reports progress between chunks.
+    """
+    parts = make_train_parts(config, progress)
+
+    def train(key: jax.Array):
+        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key), None,
+                              length=parts.num_chunks)[0]
         return runner, runner.outputs
 
     return train

@@ -63,11 +63,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _progress_line(step: int, point: dict, seeds: int, elapsed: float, steps_done: int) -> str:
+def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
     return (f"step {step:>8d} | eval {point['eval_return']:9.1f} | train "
             f"{point['train_return']:9.1f} | alpha {point['alpha']:.3f} | critic "
             f"{point['critic_loss']:.3g} | actor {point['actor_loss']:.3g} | "
-            f"{steps_done * seeds / max(elapsed, 1e-9):8.0f} steps/s | {elapsed:6.1f} s")
+            f"{step * seeds / max(elapsed, 1e-9):8.0f} steps/s | {elapsed:6.1f} s")
 
 
 def main(argv=None) -> int:
@@ -89,8 +89,8 @@ def main(argv=None) -> int:
           f"steps each, {config.num_envs} envs, {config.updates_per_step} updates/iteration",
           flush=True)
 
-    def on_point(step, point, elapsed, steps_done):
-        print(_progress_line(step, point, args.seeds, elapsed, steps_done), flush=True)
+    def on_point(step, point, elapsed):
+        print(_progress_line(step, point, args.seeds, elapsed), flush=True)
 
     result: RunResult = run_training(config, seeds=args.seeds, seed=args.seed, on_point=on_point)
     s = result.summary
