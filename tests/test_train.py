@@ -77,3 +77,21 @@ def _max_diff_and_scale(a, b):
     """(max |a - b|, max |b|) over all leaves of two parameter pytrees."""
     pairs = zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b))
     return tuple(np.max([(np.abs(x - y).max(), np.abs(y).max()) for x, y in pairs], axis=0))
+
+
+def test_replay_buffer_is_updated_in_place_inside_the_loop():
+    """The compiled loop writes the buffer in place: no buffer-sized copy inside any loop body
+    (one at program entry, from the zero initialisation, is fine). A copy there would cost
+    O(capacity) per iteration; it happened with nested scans before the loop was flattened."""
+    import re
+
+    capacity = 77_778  # an unmistakable leading dimension
+    config = CONFIG.replace(buffer_size=capacity)
+    text = jax.jit(sac_jax.make_train(config)).lower(KEYS[0]).compile().as_text()
+    computation, copies = None, []
+    for line in text.splitlines():
+        if line and not line.startswith(" ") and "{" in line:
+            computation = line.split(" ")[0]
+        if re.search(rf"= \w+\[{capacity}[,\]]", line) and " copy(" in line:
+            copies.append(computation)
+    assert all(c == "ENTRY" for c in copies), copies
