@@ -8,6 +8,7 @@ rule it breaks; nothing is half-built.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from typing import Optional, Tuple
 
@@ -17,10 +18,9 @@ LOG_STD_MODES = ("clip", "tanh")
 LOG_PROB_CORRECTIONS = ("exact", "epsilon")
 ALPHA_LOSSES = ("alpha", "log_alpha")
 ALPHA_LOG_PROBS = ("resample", "reuse")
-UPDATE_ORDERS = {
-    "v2": {("critic", "actor"), ("actor", "critic")},
-    "v1": {("value", "actor", "critic"), ("critic", "value", "actor"), ("value", "critic", "actor"),
-           ("actor", "value", "critic"), ("critic", "actor", "value"), ("actor", "critic", "value")},
+UPDATE_ORDERS = {  # any order of the variant's updates
+    "v2": set(itertools.permutations(("critic", "actor"))),
+    "v1": set(itertools.permutations(("value", "actor", "critic"))),
 }
 
 
