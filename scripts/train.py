@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 import sys
 
@@ -64,9 +65,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
-    return (f"step {step:>8d} | eval {point['eval_return']:9.1f} | train "
-            f"{point['train_return']:9.1f} | alpha {point['alpha']:.3f} | critic "
-            f"{point['critic_loss']:.3g} | actor {point['actor_loss']:.3g} | "
+    """One line per evaluation point; a value that is not defined at this point (e.g. no
+    training episode ended since the last evaluation) shows as "-"."""
+    def number(name, spec):
+        value = point[name]
+        return format(value, spec) if math.isfinite(value) else "-".rjust(len(format(0.0, spec)))
+
+    return (f"step {step:>8d} | eval {number('eval_return', '9.1f')} | train "
+            f"{number('train_return', '9.1f')} | alpha {number('alpha', '.3f')} | critic "
+            f"{number('critic_loss', '.3g')} | actor {number('actor_loss', '.3g')} | "
             f"{step * seeds / max(elapsed, 1e-9):8.0f} steps/s | {elapsed:6.1f} s")
 
 
