@@ -1,31 +1,46 @@
 """Running a configuration from the host: compile once, train all seeds in one program, follow
-progress, time it, and write a run directory."""
+progress, check that the state stays finite, stop cleanly on request, and resume.
+
+The compiled unit is `jax.vmap(chunk)` from `sac_jax.train.make_train_parts`: a scan over a
+fixed number of iterations that evaluates where an evaluation period ends. The host calls it
+repeatedly (donating the state, so the replay buffers are updated in place), and between calls
+reads the evaluation points, checks for non-finite parameters and polls `should_stop`. The
+program holds no host callback, so JAX's persistent compilation cache keeps it. Because each
+chunk is a pure function of the state, a run stopped at a chunk boundary and resumed from that
+state ends exactly where the uninterrupted run does.
+"""
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import json
-import os
-import shutil
-import tempfile
 import time
 from typing import Callable, Dict, Optional
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from sac_jax.config import SACConfig
 from sac_jax.presets import SOLVED_RETURN
-from sac_jax.train import make_train_parts
+from sac_jax.train import RunnerState, make_train_parts
+
+FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
 
 
 @dataclasses.dataclass
 class RunResult:
-    """`metrics`: numpy arrays (seeds, num_evals); `summary`: plain JSON-able figures."""
+    """`metrics`: numpy arrays (seeds, num_evals), NaN after the `points` evaluations done, with
+    `wall_s` (training seconds, compile excluded, at each point) and `steps_per_s` (environment
+    steps per second of one seed) added to the program's metrics;
+    `status`: FINISHED, INTERRUPTED (`should_stop` said so) or NON_FINITE (`message` says which
+    quantity, seed and step); `position`: where the host loop is, as a checkpoint stores it."""
 
-    state: object
+    state: RunnerState
     metrics: Dict[str, np.ndarray]
+    points: int
+    status: str
+    message: str
+    position: dict
     summary: dict
 
 
@@ -41,83 +56,113 @@ def solved_at(eval_returns: np.ndarray, env_steps: np.ndarray, threshold: float)
     return int(env_steps[hits[0]]) if hits.size else None
 
 
-def run_training(config: SACConfig, seeds: int = 1, seed: int = 0,
-                 on_point: Optional[Callable[[int, dict, float], None]] = None) -> RunResult:
-    """Trains `seeds` seeds (keys split from `seed`) vmapped in one program, driven from the host
-    one chunk at a time (`sac_jax.train.make_train_parts`): the compiled chunk holds no host
-    callback, so JAX's persistent compilation cache keeps it, and progress is read between
-    chunks.
+@jax.jit
+def _finite_leaves(tree):
+    """Per leaf, per seed: whether every entry is finite. Leaves (seeds, ...) -> (seeds,)."""
+    return jax.tree_util.tree_map(
+        lambda x: jnp.all(jnp.isfinite(x), axis=tuple(range(1, x.ndim))), tree)
 
-    `on_point(env_steps, mean_metrics, elapsed_s)` is called at every evaluation point with the
-    metrics averaged over seeds. The summary holds compile and run seconds, final evaluation
-    returns, the first solving step per seed, and the training wall time (compile excluded) at
-    which the mean over seeds first reached the task's threshold.
+
+def first_non_finite(sac_state) -> Optional[str]:
+    """'<quantity> of seed <s>' for the first parameter, optimiser or temperature array of the
+    vmapped `SACState` holding a NaN or an infinity; None if all are finite."""
+    flags = jax.device_get(_finite_leaves(sac_state))
+    for path, ok in jax.tree_util.tree_flatten_with_path(flags)[0]:
+        if not np.all(ok):
+            name = jax.tree_util.keystr(path, simple=True, separator="/")
+            return f"{name} of seed {int(np.argmin(ok))}"
+    return None
+
+
+def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
+                 resume: Optional[tuple] = None,
+                 on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
+                 on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
+                 should_stop: Optional[Callable[[], bool]] = None) -> RunResult:
+    """Trains `seeds` seeds (keys split from `seed`), vmapped in one program driven one chunk at
+    a time.
+
+    resume: `(state, position)` read from a checkpoint; the run continues from there.
+    on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
+        metrics averaged over seeds and each seed's evaluation return.
+    on_checkpoint(state, position): after every evaluation point and when stopping on request;
+        the state is not touched afterwards until the call returns (save it there).
+    should_stop(): polled after every chunk; True ends the run as INTERRUPTED.
+    A parameter, optimiser state or temperature that becomes non-finite ends the run as
+    NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good.
     """
     threshold = SOLVED_RETURN.get(config.env)
     parts = make_train_parts(config)
-    init = jax.jit(jax.vmap(parts.init))
     chunk = jax.jit(jax.vmap(parts.chunk), donate_argnums=0)
-    keys = jax.random.split(jax.random.key(seed), seeds)
     t0 = time.perf_counter()
-    runner = init(keys)
+    if resume is None:
+        runner = jax.jit(jax.vmap(parts.init))(jax.random.split(jax.random.key(seed), seeds))
+        position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "walls": {}}
+    else:
+        runner, position = resume
+        runner = jax.device_put(runner)
+        position = dict(position, walls=dict(position["walls"]))
     chunk = chunk.lower(runner).compile()
-    compile_s = time.perf_counter() - t0
-    start = time.perf_counter()
-    walls: Dict[int, float] = {}
-    evals_done = 0
-    for _ in range(parts.num_chunks):
+    position["compile_s"] += time.perf_counter() - t0
+    start = time.perf_counter() - position["run_s"]
+    status, message = FINISHED, ""
+
+    def points_done(state) -> int:
+        iterations = int(state.iteration[0])  # waits for the chunk
+        return max(0, (iterations - config.prefill_iterations) // config.iterations_per_eval)
+
+    points = points_done(runner)
+    while position["chunks_done"] < parts.num_chunks:
         runner = chunk(runner)
-        iterations = int(runner.iteration[0])  # waits for the chunk
-        evals = max(0, (iterations - config.prefill_iterations) // config.iterations_per_eval)
-        if evals > evals_done:
-            evals_done = evals
-            point = jax.device_get({k: v[:, evals - 1] for k, v in runner.outputs.items()})
+        position["chunks_done"] += 1
+        new_points = points_done(runner)
+        position["run_s"] = time.perf_counter() - start
+        bad = first_non_finite(runner.sac)
+        if bad is not None:
+            steps = int(runner.iteration[0]) * config.num_envs
+            status, message = NON_FINITE, f"non-finite {bad} at environment step {steps}"
+            break
+        reached = new_points > points
+        if reached:
+            points = new_points
+            point = jax.device_get({k: v[:, points - 1] for k, v in runner.outputs.items()})
             step = int(point["env_steps"][0])
-            walls[step] = time.perf_counter() - start
+            position["walls"][str(step)] = position["run_s"]
             if on_point is not None:
-                on_point(step, {k: _nanmean(v) for k, v in point.items()}, walls[step])
-    run_s = time.perf_counter() - start
+                on_point(step, {k: _nanmean(v) for k, v in point.items()},
+                         np.asarray(point["eval_return"]), position["run_s"])
+        stop = should_stop is not None and should_stop()
+        if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
+            on_checkpoint(runner, position)
+        if stop and position["chunks_done"] < parts.num_chunks:
+            steps = int(runner.iteration[0]) * config.num_envs
+            status, message = INTERRUPTED, f"stopped at environment step {steps}"
+            break
+
     metrics = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
-    steps = metrics["env_steps"][0]
-    mean_eval = metrics["eval_return"].mean(axis=0)
-    solved_mean = solved_at(mean_eval, steps, threshold) if threshold is not None else None
+    walls = np.full(config.num_evals, np.nan)
+    for p, step in enumerate(metrics["env_steps"][0, :points]):
+        walls[p] = position["walls"].get(str(int(step)), np.nan)
+    metrics["wall_s"] = np.broadcast_to(walls, metrics["eval_return"].shape).copy()
+    metrics["steps_per_s"] = metrics["env_steps"] / metrics["wall_s"]
+    steps = metrics["env_steps"][0, :points]
+    returns = metrics["eval_return"][:, :points]
+    solved = [solved_at(r, steps, threshold) if threshold is not None else None for r in returns]
+    solved_mean = (solved_at(returns.mean(axis=0), steps, threshold)
+                   if threshold is not None and points else None)
     summary = {
         "env": config.env,
         "seeds": seeds,
-        "total_steps": int(steps[-1]),
-        "eval_return": [float(r) for r in metrics["eval_return"][:, -1]],
+        "status": status,
+        "message": message,
+        "total_steps": int(steps[-1]) if points else 0,
+        "eval_return": [float(r) for r in returns[:, -1]] if points else [],
         "solved_threshold": threshold,
-        "solved_at_step": [solved_at(r, steps, threshold) if threshold is not None else None
-                           for r in metrics["eval_return"]],
-        "solved_wall_s": round(walls[solved_mean], 3) if solved_mean is not None else None,
-        "compile_s": round(compile_s, 3),
-        "run_s": round(run_s, 3),
-        "wall_s": round(compile_s + run_s, 3),
+        "solved_at_step": solved,
+        "solved_wall_s": (round(position["walls"][str(solved_mean)], 3)
+                          if solved_mean is not None else None),
+        "compile_s": round(position["compile_s"], 3),
+        "run_s": round(position["run_s"], 3),
+        "wall_s": round(position["compile_s"] + position["run_s"], 3),
     }
-    return RunResult(state=runner, metrics=metrics, summary=summary)
-
-
-def write_run_dir(out: str, config: SACConfig, preset: str, result: RunResult) -> None:
-    """Writes config.json, metrics.csv and summary.json into a new directory `out`, built under
-    a temporary name and renamed at the end, so `out` is either complete or absent."""
-    parent = os.path.dirname(os.path.abspath(out))
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".tmp-run-", dir=parent)
-    try:
-        with open(os.path.join(tmp, "config.json"), "w") as f:
-            json.dump(dataclasses.asdict(config), f, indent=2)
-        names = ["env_steps", "eval_return", "train_return"] + sorted(
-            k for k in result.metrics if k not in ("env_steps", "eval_return", "train_return"))
-        with open(os.path.join(tmp, "metrics.csv"), "w", newline="") as f:
-            writer = csv.writer(f)
-            writer.writerow(["seed"] + names)
-            seeds, points = result.metrics["eval_return"].shape
-            for s in range(seeds):
-                for p in range(points):
-                    writer.writerow([s] + [result.metrics[k][s, p].item() for k in names])
-        with open(os.path.join(tmp, "summary.json"), "w") as f:
-            json.dump(dict(result.summary, preset=preset), f, indent=2)
-        os.rename(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    return RunResult(runner, metrics, points, status, message, position, summary)

@@ -1,0 +1,91 @@
+"""Checkpoints: a whole training state (every pytree leaf, PRNG keys included) in one msgpack
+file, written under a temporary name and renamed, and read back against a template.
+
+File layout (flax's msgpack encoding, never pickle):
+    {"format": FORMAT, "meta": {...JSON-able...}, "leaves": {"0": array, "1": array, ...}}
+Leaves are the `jax.tree_util` leaves of the saved pytree in order; typed PRNG key arrays (of JAX's default
+implementation) are stored as their raw `jax.random.key_data` and re-wrapped on load. Loading checks every leaf's
+shape and dtype against the template (`jax.eval_shape` of the state's constructor), so a
+checkpoint from another configuration, or a damaged file, is refused with `CheckpointError`
+before anything is built from it.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Tuple
+
+import jax
+import numpy as np
+from flax import serialization
+
+FORMAT = 1
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that is missing, unreadable, or does not fit the expected state."""
+
+
+def _is_key(leaf) -> bool:
+    return jax.dtypes.issubdtype(leaf.dtype, jax.dtypes.prng_key)
+
+
+def save(path: str, tree: Any, meta: dict) -> None:
+    """Writes `tree` and `meta` to `path` atomically (temporary file in the same directory, then
+    `os.replace`): `path` always holds either the previous checkpoint or this one."""
+    leaves = jax.device_get([jax.random.key_data(x) if _is_key(x) else x
+                             for x in jax.tree_util.tree_leaves(tree)])
+    payload = {"format": FORMAT, "meta": meta,
+               "leaves": {str(i): np.asarray(x) for i, x in enumerate(leaves)}}
+    tmp = f"{path}.tmp-{os.getpid()}"
+    try:
+        with open(tmp, "wb") as f:
+            f.write(serialization.msgpack_serialize(payload))
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def load(path: str, template: Any) -> Tuple[Any, dict]:
+    """Reads the checkpoint at `path` into the structure of `template` (a pytree of arrays or
+    `jax.ShapeDtypeStruct`s); returns (tree, meta). Raises `CheckpointError` naming the path and
+    the problem."""
+    if not os.path.isfile(path):
+        raise CheckpointError(f"checkpoint {path}: not found")
+    try:
+        with open(path, "rb") as f:
+            payload = serialization.msgpack_restore(f.read())
+        if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+            raise CheckpointError(f"checkpoint {path}: not a sac-jax checkpoint (format "
+                                  f"{payload.get('format') if isinstance(payload, dict) else '?'})")
+        stored, meta = payload["leaves"], payload["meta"]
+    except CheckpointError:
+        raise
+    except Exception as error:  # msgpack raises several types on damaged input
+        raise CheckpointError(f"checkpoint {path}: unreadable ({type(error).__name__})") from None
+    expected, treedef = jax.tree_util.tree_flatten(template)
+    if len(stored) != len(expected):
+        raise CheckpointError(f"checkpoint {path}: holds {len(stored)} arrays, this "
+                              f"configuration has {len(expected)}")
+    leaves = []
+    for i, want in enumerate(expected):
+        got = np.asarray(stored[str(i)])
+        if _is_key(want):
+            ref = jax.eval_shape(jax.random.key_data, want)
+            if got.shape != ref.shape or got.dtype != ref.dtype:
+                raise CheckpointError(f"checkpoint {path}: key {i} has shape {got.shape}, "
+                                      f"expected {ref.shape}")
+            key = jax.random.wrap_key_data(got)
+            if key.dtype != want.dtype:
+                raise CheckpointError(f"checkpoint {path}: key {i} is {key.dtype}, expected "
+                                      f"{want.dtype}")
+            leaves.append(key)
+            continue
+        if got.shape != tuple(want.shape) or got.dtype != want.dtype:
+            raise CheckpointError(f"checkpoint {path}: array {i} is {got.dtype}{list(got.shape)}, "
+                                  f"expected {want.dtype}{list(want.shape)} (another configuration?)")
+        leaves.append(got)
+    return jax.tree_util.tree_unflatten(treedef, leaves), meta

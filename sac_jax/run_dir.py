@@ -1,0 +1,163 @@
+"""The run directory: what a training run leaves on disk, every file complete or absent.
+
+    config.json        the SACConfig
+    run.json           preset, seeds, seed (what else `--resume` needs to rebuild the program)
+    checkpoint.msgpack the whole vmapped training state, buffers and keys included
+                       (`sac_jax.checkpoint`), with the host loop's position and clocks
+    metrics.csv        one row per evaluation point and seed
+    summary.json       final figures (`sac_jax.run.RunResult.summary`) and the run's status
+    curves.png         evaluation return vs environment steps: mean over seeds, min-max band
+    tensorboard/       TensorBoard event files (tensorboardX)
+
+The directory is created under a temporary name and renamed, so an existing directory is never
+written into by a new run; every later file is written to a temporary name and renamed.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import os
+import shutil
+import tempfile
+from typing import Dict, Tuple
+
+import jax
+import numpy as np
+
+from sac_jax import checkpoint
+from sac_jax.config import SACConfig
+from sac_jax.train import RunnerState, make_train_parts
+
+CHECKPOINT = "checkpoint.msgpack"
+
+
+class RunDirError(ValueError):
+    """A run directory that cannot be created or read back."""
+
+
+def _write(path: str, data: bytes) -> None:
+    tmp = f"{path}.tmp-{os.getpid()}"
+    with open(tmp, "wb") as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
+def _write_json(path: str, obj) -> None:
+    _write(path, (json.dumps(obj, indent=2) + "\n").encode())
+
+
+def create(out: str, config: SACConfig, preset: str, seeds: int, seed: int) -> None:
+    """Creates the run directory `out` holding config.json and run.json. Raises `RunDirError`
+    if `out` exists (nothing in it is touched)."""
+    if os.path.exists(out):
+        raise RunDirError(f"--out={out}: already exists; choose a new run directory")
+    parent = os.path.dirname(os.path.abspath(out))
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=".tmp-run-", dir=parent)
+    try:
+        _write_json(os.path.join(tmp, "config.json"), dataclasses.asdict(config))
+        _write_json(os.path.join(tmp, "run.json"), {"preset": preset, "seeds": seeds, "seed": seed})
+        os.rename(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def read_config(run_dir: str) -> Tuple[SACConfig, dict]:
+    """(config, run info) of an existing run directory; `RunDirError` if either is unreadable."""
+    if not os.path.isdir(run_dir):
+        raise RunDirError(f"{run_dir}: no such run directory")
+    try:
+        with open(os.path.join(run_dir, "config.json")) as f:
+            config = SACConfig(**json.load(f))
+        with open(os.path.join(run_dir, "run.json")) as f:
+            info = json.load(f)
+        return config, {"preset": str(info["preset"]), "seeds": int(info["seeds"]),
+                        "seed": int(info["seed"])}
+    except (OSError, ValueError, TypeError, KeyError) as error:
+        raise RunDirError(f"{run_dir}: not a readable run directory ({error})") from None
+
+
+def state_template(config: SACConfig, seeds: int) -> RunnerState:
+    """Shapes and dtypes of the vmapped training state of `seeds` seeds (nothing is computed)."""
+    init = jax.vmap(make_train_parts(config).init)
+    return jax.eval_shape(init, jax.random.split(jax.random.key(0), seeds))
+
+
+def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
+    """Saves the training state and the host loop's `position` (chunks done, clocks)."""
+    checkpoint.save(os.path.join(run_dir, CHECKPOINT), runner, position)
+
+
+def load_checkpoint(run_dir: str) -> Tuple[SACConfig, dict, RunnerState, dict]:
+    """(config, run info, training state, position) of a run directory's checkpoint;
+    `RunDirError` (or its subclass `checkpoint.CheckpointError`) says what is wrong."""
+    config, info = read_config(run_dir)
+    runner, position = checkpoint.load(os.path.join(run_dir, CHECKPOINT),
+                                       state_template(config, info["seeds"]))
+    return config, info, runner, position
+
+
+def write_metrics(run_dir: str, metrics: Dict[str, np.ndarray], points: int) -> None:
+    """metrics.csv: one row per evaluation point (the first `points`) and seed."""
+    first = ["env_steps", "eval_return", "train_return"]
+    names = first + sorted(k for k in metrics if k not in first)
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(["seed"] + names)
+    for s in range(metrics["eval_return"].shape[0]):
+        for p in range(points):
+            writer.writerow([s] + [metrics[k][s, p].item() for k in names])
+    _write(os.path.join(run_dir, "metrics.csv"), text.getvalue().encode())
+
+
+def write_summary(run_dir: str, summary: dict) -> None:
+    _write_json(os.path.join(run_dir, "summary.json"), summary)
+
+
+def write_curves(run_dir: str, metrics: Dict[str, np.ndarray], points: int, title: str,
+                 threshold=None) -> None:
+    """curves.png: mean evaluation return over seeds against environment steps, with the
+    min-max band over seeds and the task's solving threshold."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps = metrics["env_steps"][0, :points]
+    returns = metrics["eval_return"][:, :points]
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    ax.fill_between(steps, returns.min(axis=0), returns.max(axis=0), alpha=0.3,
+                    label=f"min-max over {returns.shape[0]} seed(s)")
+    ax.plot(steps, returns.mean(axis=0), marker="o", label="mean")
+    if threshold is not None:
+        ax.axhline(threshold, color="grey", linestyle="--", label=f"solved ({threshold:g})")
+    ax.set(xlabel="environment steps", ylabel="evaluation return", title=title)
+    ax.legend(loc="lower right")
+    ax.grid(alpha=0.3)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", bbox_inches="tight")
+    plt.close(fig)
+    _write(os.path.join(run_dir, "curves.png"), buffer.getvalue())
+
+
+class TensorBoard:
+    """Scalars of each evaluation point: every metric's mean over seeds under `mean/`, and each
+    seed's evaluation return under `eval_return/seed_<i>`."""
+
+    def __init__(self, run_dir: str):
+        from tensorboardX import SummaryWriter
+        self._writer = SummaryWriter(os.path.join(run_dir, "tensorboard"))
+
+    def add_point(self, step: int, means: Dict[str, float], eval_returns) -> None:
+        for name, value in means.items():
+            if name != "env_steps" and np.isfinite(value):
+                self._writer.add_scalar(f"mean/{name}", value, step)
+        for s, value in enumerate(eval_returns):
+            self._writer.add_scalar(f"eval_return/seed_{s}", float(value), step)
+        self._writer.flush()
+
+    def close(self) -> None:
+        self._writer.close()
