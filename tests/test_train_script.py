@@ -1,10 +1,17 @@
 """scripts/train.py: bad input ends with one line naming the problem and exit code 2, before
-anything is compiled or written; the progress line."""
+anything is compiled or written; the run directory; a signal saves a checkpoint and `--resume`
+ends exactly where an uninterrupted run does; a non-finite state stops the run and keeps the
+last good checkpoint; the progress line."""
 
+import csv
 import importlib.util
+import json
 import math
 import os
+import shutil
+import signal
 
+import numpy as np
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -32,11 +39,26 @@ def test_an_existing_run_directory_is_not_touched(tmp_path, capsys):
     assert os.listdir(tmp_path) == ["keep.txt"]
 
 
-def test_unknown_preset_and_malformed_values_are_rejected_by_the_parser(capsys):
-    for argv in (["--preset", "nope"], ["--learn-alpha", "maybe"], ["--num-envs", "two"]):
-        with pytest.raises(SystemExit) as exit_info:
-            train_script.main(argv)
-        assert exit_info.value.code == 2
+@pytest.mark.parametrize("argv, message", [
+    (["--preset", "nope"], "error: argument --preset: invalid choice: 'nope'"),
+    (["--learn-alpha", "maybe"], "error: argument --learn-alpha: expected true or false"),
+    (["--num-envs", "two"], "error: argument --num-envs: invalid int value: 'two'"),
+])
+def test_unknown_preset_and_malformed_values_end_with_one_line(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        train_script.main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(message) and "\n" not in err
+
+
+def test_resume_errors_name_the_problem_and_touch_nothing(tmp_path, capsys):
+    assert train_script.main(["--resume", str(tmp_path / "missing")]) == 2
+    assert "no such run directory" in capsys.readouterr().err
+    (tmp_path / "junk.txt").write_text("mine")
+    assert train_script.main(["--resume", str(tmp_path)]) == 2
+    assert "not a readable run directory" in capsys.readouterr().err
+    assert os.listdir(tmp_path) == ["junk.txt"]
 
 
 def test_every_config_field_is_a_documented_flag():
@@ -51,3 +73,125 @@ def test_progress_line_shows_undefined_values_as_a_dash():
              "critic_loss": 2.73, "actor_loss": -41.6}
     line = train_script._progress_line(20480, point, 1, 26.0)
     assert "eval    1000.0" in line and "train         -" in line and "alpha 0.016" in line
+
+
+# ---------------------------------------------------------------- runs (Pendulum-v1, tiny)
+RUN = ["--preset", "pendulum", "--total-steps", "4000", "--eval-every", "1000",
+       "--learning-starts", "1000", "--buffer-size", "4000", "--eval-episodes", "2",
+       "--actor-hidden", "32,32", "--critic-hidden", "32,32", "--seed", "3"]
+TIMING = ("wall_s", "steps_per_s")
+
+
+def _metrics(run_dir):
+    """metrics.csv without the timing columns."""
+    with open(os.path.join(run_dir, "metrics.csv")) as f:
+        return [{k: v for k, v in row.items() if k not in TIMING} for row in csv.DictReader(f)]
+
+
+def _checkpoint_arrays(run_dir):
+    from flax import serialization
+    with open(os.path.join(run_dir, "checkpoint.msgpack"), "rb") as f:
+        return serialization.msgpack_restore(f.read())["leaves"]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """An uninterrupted run, and the same run stopped by SIGINT at its first evaluation point."""
+    root = tmp_path_factory.mktemp("runs")
+    whole, stopped = str(root / "whole"), str(root / "stopped")
+    assert train_script.main(RUN + ["--out", whole]) == 0
+    line = train_script._progress_line
+
+    def progress_then_interrupt(*args):  # a real signal, delivered while the run is going
+        os.kill(os.getpid(), signal.SIGINT)
+        return line(*args)
+
+    train_script._progress_line = progress_then_interrupt
+    try:
+        code = train_script.main(RUN + ["--out", stopped])
+    finally:
+        train_script._progress_line = line
+    interrupted = str(root / "interrupted")
+    shutil.copytree(stopped, interrupted)
+    return {"whole": whole, "stopped": stopped, "interrupted": interrupted, "code": code,
+            "root": root}
+
+
+def test_a_finished_run_directory_holds_every_output(runs):
+    files = set(os.listdir(runs["whole"]))
+    assert {"config.json", "run.json", "checkpoint.msgpack", "metrics.csv", "summary.json",
+            "curves.png", "tensorboard"} <= files
+    assert not [f for f in files if "tmp" in f]
+    summary = json.load(open(os.path.join(runs["whole"], "summary.json")))
+    assert summary["status"] == "finished" and summary["preset"] == "pendulum"
+    assert summary["total_steps"] == 4000 and len(summary["eval_return"]) == 1
+    assert {"env", "seeds", "solved_at_step", "wall_s", "compile_s"} <= set(summary)
+    rows = _metrics(runs["whole"])
+    assert [int(r["env_steps"]) for r in rows] == [2000, 3000, 4000]
+    assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+def _scalars(event_dir, tag):
+    """(step, value) of `tag` in a TensorBoard event file, read as TFRecords: a little-endian
+    uint64 length, its 4-byte CRC, the serialized Event, its 4-byte CRC."""
+    from tensorboardX.proto import event_pb2
+    (name,) = os.listdir(event_dir)
+    data, found, at = open(os.path.join(event_dir, name), "rb").read(), [], 0
+    while at < len(data):
+        length = int.from_bytes(data[at:at + 8], "little")
+        event = event_pb2.Event.FromString(data[at + 12:at + 12 + length])
+        found += [(event.step, v.simple_value) for v in event.summary.value if v.tag == tag]
+        at += 16 + length
+    return found
+
+
+def test_tensorboard_events_hold_every_evaluation_point(runs):
+    points = _scalars(os.path.join(runs["whole"], "tensorboard"), "mean/eval_return")
+    csv_returns = [float(r["eval_return"]) for r in _metrics(runs["whole"])]
+    assert [step for step, _ in points] == [2000, 3000, 4000]
+    np.testing.assert_allclose([value for _, value in points], csv_returns, rtol=1e-6)
+
+
+def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
+    assert runs["code"] == 130
+    summary = json.load(open(os.path.join(runs["interrupted"], "summary.json")))
+    assert summary["status"] == "interrupted" and summary["total_steps"] == 2000
+    assert os.path.exists(os.path.join(runs["interrupted"], "checkpoint.msgpack"))
+
+
+def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs):
+    assert train_script.main(["--resume", runs["stopped"]]) == 0
+    assert _metrics(runs["stopped"]) == _metrics(runs["whole"])
+    resumed, whole = _checkpoint_arrays(runs["stopped"]), _checkpoint_arrays(runs["whole"])
+    assert resumed.keys() == whole.keys()
+    for name in whole:  # parameters, optimiser states, buffers, keys: bit for bit
+        np.testing.assert_array_equal(resumed[name], whole[name])
+    assert train_script.main(["--resume", runs["whole"]]) == 2  # finished: nothing to do
+
+
+def test_a_corrupt_checkpoint_is_refused_in_one_line(runs, capsys):
+    broken = str(runs["root"] / "broken")
+    shutil.copytree(runs["interrupted"], broken)
+    with open(os.path.join(broken, "checkpoint.msgpack"), "r+b") as f:
+        f.truncate(1000)
+    assert train_script.main(["--resume", broken]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: checkpoint") and "unreadable" in err and "\n" not in err
+    os.remove(os.path.join(broken, "checkpoint.msgpack"))
+    assert train_script.main(["--resume", broken]) == 2
+    assert "not found" in capsys.readouterr().err
+
+
+def test_a_non_finite_state_stops_the_run_and_keeps_the_last_good_checkpoint(runs, capsys):
+    diverging = str(runs["root"] / "diverging")
+    shutil.copytree(runs["interrupted"], diverging)
+    config_path = os.path.join(diverging, "config.json")
+    config = json.load(open(config_path))
+    json.dump(dict(config, reward_scale=1e30), open(config_path, "w"))  # Q targets overflow
+    good = open(os.path.join(diverging, "checkpoint.msgpack"), "rb").read()
+    assert train_script.main(["--resume", diverging]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: non-finite ") and "of seed 0 at environment step 3000" in err
+    assert "last good checkpoint kept" in err and "\n" not in err
+    assert open(os.path.join(diverging, "checkpoint.msgpack"), "rb").read() == good
+    assert json.load(open(os.path.join(diverging, "summary.json")))["status"] == "non-finite"
