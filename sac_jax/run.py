@@ -13,6 +13,7 @@ state ends exactly where the uninterrupted run does.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from typing import Callable, Dict, Optional
 
@@ -74,6 +75,18 @@ def first_non_finite(sac_state) -> Optional[str]:
     return None
 
 
+@functools.lru_cache(maxsize=4)
+def compiled_program(config: SACConfig, seeds: int):
+    """(parts, jitted vmapped init, compiled vmapped chunk) for `seeds` seeds of `config`. Kept
+    per (config, seeds), so later runs of the same shapes in this process neither trace nor
+    compile again (other processes load the compiled chunk from the persistent cache)."""
+    parts = make_train_parts(config)
+    init = jax.jit(jax.vmap(parts.init))
+    keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
+    chunk = jax.jit(jax.vmap(parts.chunk), donate_argnums=0)
+    return parts, init, chunk.lower(jax.eval_shape(init, keys)).compile()
+
+
 def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  resume: Optional[tuple] = None,
                  on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
@@ -92,17 +105,15 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good.
     """
     threshold = SOLVED_RETURN.get(config.env)
-    parts = make_train_parts(config)
-    chunk = jax.jit(jax.vmap(parts.chunk), donate_argnums=0)
     t0 = time.perf_counter()
+    parts, init, chunk = compiled_program(config, seeds)
     if resume is None:
-        runner = jax.jit(jax.vmap(parts.init))(jax.random.split(jax.random.key(seed), seeds))
+        runner = init(jax.random.split(jax.random.key(seed), seeds))
         position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "walls": {}}
     else:
         runner, position = resume
         runner = jax.device_put(runner)
         position = dict(position, walls=dict(position["walls"]))
-    chunk = chunk.lower(runner).compile()
     position["compile_s"] += time.perf_counter() - t0
     start = time.perf_counter() - position["run_s"]
     status, message = FINISHED, ""
