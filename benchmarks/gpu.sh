@@ -2,9 +2,11 @@
 # GPU figures for BENCHMARKS.md, run on a lent H100/H200 through the device tool, where jax (CUDA)
 # and torch are installed but mujoco, mujoco-mjx, flax, optax and distrax travel as wheels in
 # .whl/ (see BENCHMARKS.md), brax and its imported needs too (brax, jaxopt, ml_collections,
-# orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax).
+# orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
+# and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
 # Usage: bash benchmarks/gpu.sh env|updates|train
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
+#        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
@@ -28,6 +30,8 @@ case "$mode" in
     fi
     if [ "$mode" = brax-cpu ]; then export JAX_PLATFORMS=cpu; fi
     python3 benchmarks/brax_peer.py "$@" ;;
+  torch)
+    python3 benchmarks/torch_time_to_solve.py "$@" ;;
   *)
     echo "unknown mode $mode"; exit 2 ;;
 esac
