@@ -6,12 +6,14 @@
 
 Brax's `sac.train` arguments are set from the preset wherever an argument exists:
 
-    num_envs = num_envs (8)            grad_updates_per_step = updates_per_step (8)
-    batch_size = batch_size (128)      learning_rate = actor_lr = critic_lr (1e-3)
-    discounting = gamma (0.99)         tau = tau (0.005)          reward_scaling = 1
-    min_replay_size = learning_starts  max_replay_size = buffer_size
-    num_timesteps = total_steps        network_factory: hidden sizes = (64, 64), ReLU
-    num_eval_envs = eval_episodes (5)  deterministic_eval = True  normalize_observations = False
+    num_envs = num_envs (8)              grad_updates_per_step = updates_per_step (8)
+    batch_size = batch_size (128)        learning_rate = actor_lr = critic_lr (1e-3)
+    discounting = gamma (0.99)           tau = tau (0.005)
+    reward_scaling = reward_scale (1)    min_replay_size = learning_starts (2,048)
+    max_replay_size = buffer_size        num_eval_envs = eval_episodes (5)
+    deterministic_eval = True            normalize_observations = False
+    network_factory: hidden sizes actor_hidden = critic_hidden (64, 64), ReLU
+    num_timesteps = learning_starts + num_evals * eval_every (the steps ours runs) and
     num_evals = num_evals + 1 (Brax also evaluates at step 0), which puts Brax's evaluations at
     the same environment steps as ours (checked below).
 
@@ -105,7 +107,8 @@ def brax_arguments(config) -> dict:
                          f"{config.critic_lr}, actor_hidden={config.actor_hidden}, "
                          f"critic_hidden={config.critic_hidden}")
     return dict(
-        num_timesteps=config.total_steps, num_envs=config.num_envs,
+        num_timesteps=config.learning_starts + config.num_evals * config.eval_every,
+        num_envs=config.num_envs,
         batch_size=config.batch_size, grad_updates_per_step=config.updates_per_step,
         learning_rate=config.actor_lr, discounting=config.gamma, tau=config.tau,
         reward_scaling=config.reward_scale, min_replay_size=config.learning_starts,

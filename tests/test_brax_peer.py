@@ -47,8 +47,9 @@ def test_device_put_replicated_stacks_on_every_device(peer):
             np.testing.assert_array_equal(np.asarray(shard.data)[0], np.asarray(leaf))
 
 
-@pytest.mark.parametrize("changes", [{}, dict(total_steps=768, learning_starts=256,
-                                                 buffer_size=768, eval_every=256)])
+@pytest.mark.parametrize("changes", [{}, dict(total_steps=21_000, buffer_size=21_000),
+                                     dict(total_steps=768, learning_starts=256,
+                                          buffer_size=768, eval_every=256)])
 def test_brax_arguments_evaluate_where_we_do(peer, changes):
     config = PRESETS["fast"].replace(**changes)
     kw = peer.brax_arguments(config)
