@@ -1,14 +1,20 @@
 #!/usr/bin/env bash
 # GPU figures for BENCHMARKS.md, run on a lent H100/H200 through the device tool, where jax (CUDA)
 # and torch are installed but mujoco, mujoco-mjx, flax, optax and distrax travel as wheels in
-# .whl/ (see BENCHMARKS.md). Usage: bash benchmarks/gpu.sh env|updates|train
+# .whl/ (see BENCHMARKS.md), brax and its imported needs too (brax, jaxopt, ml_collections,
+# orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
+# and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
+# Usage: bash benchmarks/gpu.sh env|updates|train
+#        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
+#        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
 export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader
 python3 -c "import jax, mujoco, flax, optax, distrax; print('jax', jax.__version__, jax.devices())"
-case "$1" in
+mode=${1:-}; shift
+case "$mode" in
   env)
     python3 benchmarks/env_throughput.py --sizes 1024 16384 131072 --steps 200 --repeats 3 \
       --skip-baselines ;;
@@ -18,4 +24,14 @@ case "$1" in
     for seeds in 1 256; do
       python3 scripts/train.py --seeds "$seeds" --cache-dir /tmp/jaxcache 2>&1 | tail -4
     done ;;
+  brax|brax-cpu)
+    if ! out=$(python3 -c "import PIL, scipy, brax.training.agents.sac.train" 2>&1); then
+      echo "$out" | tail -5; echo "brax does not import"; exit 1
+    fi
+    if [ "$mode" = brax-cpu ]; then export JAX_PLATFORMS=cpu; fi
+    python3 benchmarks/brax_peer.py "$@" ;;
+  torch)
+    python3 benchmarks/torch_time_to_solve.py "$@" ;;
+  *)
+    echo "unknown mode $mode"; exit 2 ;;
 esac

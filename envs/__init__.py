@@ -6,6 +6,8 @@
     state = jax.jit(env.step)(state, jax.numpy.zeros(env.action_size))
 
 See docs/environments.md for the interface and the list of environments.
+``envs.to_brax(env)`` exposes an environment as a ``brax.envs.Env`` (envs/brax_adapter.py);
+Brax is imported on its first use only.
 """
 
 from envs.registry import DEFAULT_ENV, make, options, registered
@@ -22,4 +24,14 @@ __all__ = [
     "make",
     "options",
     "registered",
+    "to_brax",
 ]
+
+
+def __getattr__(name: str):
+    """Loads ``to_brax`` (and with it Brax) on first access, so ``import envs`` stays light."""
+    if name == "to_brax":
+        from envs.brax_adapter import to_brax
+
+        return to_brax
+    raise AttributeError(f"module 'envs' has no attribute {name!r}")
