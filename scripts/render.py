@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import argparse
 import ctypes.util
-import importlib.util
+import importlib
 import os
 import sys
 
@@ -186,9 +186,17 @@ def pendulum_frames(thetas: np.ndarray, width: int, height: int, dt: float) -> n
     return np.stack(frames)
 
 
+def _importable(module: str) -> bool:
+    try:
+        importlib.import_module(module)
+        return True
+    except ImportError:
+        return False
+
+
 def _video_writer_missing(extension: str) -> bool:
-    return extension == ".mp4" and not any(
-        importlib.util.find_spec(name) for name in ("imageio_ffmpeg", "av"))
+    """Whether `extension` needs a video encoder (imageio-ffmpeg or PyAV) that is not installed."""
+    return extension == ".mp4" and not any(map(_importable, ("imageio_ffmpeg", "av")))
 
 
 def write_video(path: str, frames: np.ndarray, fps: int, replace: bool = False) -> None:
