@@ -27,6 +27,10 @@ import ctypes.util
 import importlib
 import os
 import sys
+import warnings
+
+GL_HELP = ("set MUJOCO_GL=egl (system package libegl1) or MUJOCO_GL=osmesa (libosmesa6) for "
+           "headless rendering")
 
 
 def _default_gl_backend() -> None:
@@ -40,7 +44,19 @@ def _default_gl_backend() -> None:
             return
 
 
+def _import_mujoco() -> None:
+    """Imports mujoco, which loads the MUJOCO_GL backend as it is imported: a backend whose
+    library is missing fails there (e.g. osmesa without libOSMesa), ending with one line."""
+    try:
+        import mujoco  # noqa: F401
+    except Exception as error:  # ImportError, AttributeError, RuntimeError, ... by backend
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else ""
+        sys.exit(f"error: MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}: importing mujoco "
+                 f"failed ({type(error).__name__}: {reason}); {GL_HELP}")
+
+
 _default_gl_backend()
+_import_mujoco()
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import jax  # noqa: E402
@@ -55,8 +71,6 @@ from sac_jax import run_dir  # noqa: E402
 from scripts._cli import Parser, positive_int  # noqa: E402
 
 FORMATS = (".gif", ".mp4")
-GL_HELP = ("set MUJOCO_GL=egl (system package libegl1) or MUJOCO_GL=osmesa (libosmesa6) for "
-           "headless rendering")
 
 
 class MissingDependency(Exception):
@@ -132,33 +146,42 @@ def _side_camera(model, data, aspect: float):
     return camera
 
 
-def mujoco_frames(env: MjxEnv, poses: np.ndarray, width: int, height: int) -> np.ndarray:
-    """(T, height, width, 3) uint8 images of the environment's model at qpos `poses` (T, nq),
-    seen from the side (`_side_camera`), lit by a brighter headlight (the models have no lights
-    of their own)."""
+def mujoco_renderer(env: MjxEnv, width: int, height: int):
+    """`mujoco.Renderer` of width x height pixels on a copy of the environment's model, lit by
+    a brighter headlight (the models have no lights of their own). Raises MissingDependency,
+    one line, if no OpenGL context can be made."""
     import mujoco
 
     model = env.mj_model.__copy__()
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
     model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-    model.vis.headlight.ambient, model.vis.headlight.diffuse = [0.5] * 3, [0.7] * 3  # no lights
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    camera = _side_camera(model, data, width / height)
+    model.vis.headlight.ambient, model.vis.headlight.diffuse = [0.5] * 3, [0.7] * 3
     try:
-        renderer = mujoco.Renderer(model, height, width)
+        with warnings.catch_warnings():  # glfw warns before failing without a display
+            warnings.simplefilter("ignore")
+            return mujoco.Renderer(model, height, width)
     except Exception as error:  # each backend fails its own way (FatalError, ImportError, ...)
         reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise MissingDependency(f"no OpenGL context for MuJoCo's renderer (MUJOCO_GL="
                                 f"{os.environ.get('MUJOCO_GL', '')!r}: {reason}); "
                                 f"{GL_HELP}") from None
-    with renderer:
-        frames = []
-        for qpos in poses:
-            data.qpos[:] = qpos
-            mujoco.mj_kinematics(model, data)
-            renderer.update_scene(data, camera)
-            frames.append(renderer.render())
+
+
+def mujoco_frames(renderer, poses: np.ndarray) -> np.ndarray:
+    """(T, height, width, 3) uint8 images by `renderer` (`mujoco_renderer`) of its model at
+    qpos `poses` (T, nq), seen from the side (`_side_camera` of the first pose)."""
+    import mujoco
+
+    model = renderer.model
+    data = mujoco.MjData(model)
+    frames, camera = [], None
+    for qpos in poses:
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(model, data)
+        if camera is None:
+            camera = _side_camera(model, data, renderer.width / renderer.height)
+        renderer.update_scene(data, camera)
+        frames.append(renderer.render())
     return np.stack(frames)
 
 
@@ -255,16 +278,21 @@ def main(argv=None) -> int:
     env = envs.make(policy.config.env)
     steps = args.steps or env.max_episode_steps
     fps = args.fps or max(1, round(1.0 / env.dt))
-    poses, total, length = rollout(policy, env, jax.random.key(args.episode_seed), steps)
     try:
-        if isinstance(env, MjxEnv):
-            frames = mujoco_frames(env, poses, args.width, args.height)
-        else:
-            frames = pendulum_frames(poses, args.width, args.height, env.dt)
-        write_video(out, frames, fps, replace=args.force)
+        # The OpenGL context first: no compiling before knowing that it can be drawn.
+        renderer = (mujoco_renderer(env, args.width, args.height) if isinstance(env, MjxEnv)
+                    else None)
     except MissingDependency as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
+    poses, total, length = rollout(policy, env, jax.random.key(args.episode_seed), steps)
+    if renderer is None:
+        frames = pendulum_frames(poses, args.width, args.height, env.dt)
+    else:
+        with renderer:
+            frames = mujoco_frames(renderer, poses)
+    try:
+        write_video(out, frames, fps, replace=args.force)
     except FileExistsError:
         print(f"error: --out={out}: appeared while rendering; kept it (use --force to replace "
               "it)", file=sys.stderr)

@@ -101,11 +101,22 @@ def test_no_opengl_context_is_one_line_naming_the_setting(runs, tmp_path, capsys
 
     monkeypatch.setattr(mujoco, "Renderer", no_context)
     with pytest.raises(render_script.MissingDependency, match="libegl1.*libosmesa6"):
-        render_script.mujoco_frames(envs.make("InvertedPendulum-v5"), np.zeros((1, 2)), 8, 8)
+        render_script.mujoco_renderer(envs.make("InvertedPendulum-v5"), 8, 8)
     out = str(tmp_path / "x.gif")
     assert render_script.main([runs["cartpole"], "--out", out, "--steps", "5"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "MUJOCO_GL" in err and "not been loaded" in err
+    assert not os.path.exists(out)
+
+
+def test_a_gl_backend_mujoco_cannot_load_is_one_line(runs, tmp_path):
+    out = str(tmp_path / "x.gif")
+    done = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "scripts", "render.py"), runs["cartpole"], "--out",
+         out], capture_output=True, text=True, timeout=300,
+        env=dict(os.environ, MUJOCO_GL="no-such-backend"))
+    assert done.returncode == 1 and done.stderr.count("\n") == 1, done.stderr
+    assert done.stderr.startswith("error: MUJOCO_GL='no-such-backend': importing mujoco failed")
     assert not os.path.exists(out)
 
 
