@@ -1,8 +1,13 @@
-"""What the command-line scripts share: bad input ends with one line on stderr, no traceback."""
+"""What the command-line scripts share: bad input ends with one line on stderr, no traceback
+(exit 2); so does a missing dependency (exit 1)."""
 
 from __future__ import annotations
 
 import argparse
+
+
+class MissingDependency(Exception):
+    """A library or system package that the requested work needs is not available (exit 1)."""
 
 
 class Parser(argparse.ArgumentParser):

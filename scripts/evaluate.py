@@ -38,7 +38,7 @@ import sac_jax  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
 from sac_jax.evaluation import initial_states  # noqa: E402
-from scripts._cli import Parser, positive_int  # noqa: E402
+from scripts._cli import MissingDependency, Parser, positive_int  # noqa: E402
 
 GYMNASIUM_IDS = {name: name for name in (
     "InvertedPendulum-v5", "InvertedPendulum-v4", "InvertedDoublePendulum-v5", "Pendulum-v1")}
@@ -107,6 +107,20 @@ def _gymnasium_id(env_name: str) -> str:
     return GYMNASIUM_IDS[env_name]
 
 
+def _make_gymnasium(gym_id: str):
+    """`gymnasium.make(gym_id)`; MissingDependency (one line) if Gymnasium or what the
+    environment needs is not installed."""
+    try:
+        import gymnasium
+    except ImportError:
+        raise MissingDependency(GYMNASIUM_MISSING) from None
+    try:
+        return gymnasium.make(gym_id)
+    except gymnasium.error.DependencyNotInstalled as error:  # e.g. no mujoco for MuJoCo envs
+        raise MissingDependency(f"{str(error).strip().splitlines()[0]}; "
+                                f"{GYMNASIUM_MISSING}") from None
+
+
 def _summary(returns: np.ndarray) -> dict:
     return {"mean": float(returns.mean()), "std": float(returns.std()),
             "returns": [float(r) for r in returns]}
@@ -124,37 +138,32 @@ def main(argv=None) -> int:
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    if use_gym:
-        try:
-            import gymnasium
-        except ImportError:
-            print(f"error: {GYMNASIUM_MISSING}", file=sys.stderr)
-            return 1
     sac_jax.enable_compilation_cache()
     try:
         policy = sac_jax.load_policy(args.run, args.seed)
     except ValueError as error:  # also RunDirError and CheckpointError
         print(f"error: {error}", file=sys.stderr)
         return 2
+    try:  # before anything is compiled
+        gym_env = _make_gymnasium(gym_id) if use_gym else None
+    except MissingDependency as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
 
     results = {"run": args.run, "env": config.env, "seed": args.seed,
                "episode_seed": args.episode_seed, "episodes": args.episodes}
     key = jax.random.key(args.episode_seed)
     env = envs.make(config.env)
-    if use_ours:
-        results["ours"] = _summary(our_returns(policy, env, args.episodes, key))
-    if use_gym:
-        try:
-            gym_env = gymnasium.make(gym_id)
-        except gymnasium.error.DependencyNotInstalled as error:
-            print(f"error: {str(error).splitlines()[0]}; {GYMNASIUM_MISSING}", file=sys.stderr)
-            return 1
-        starts = (jax.device_get(initial_states(env, key, args.episodes).data)
-                  if args.paired else None)
-        try:
+    try:
+        if use_ours:
+            results["ours"] = _summary(our_returns(policy, env, args.episodes, key))
+        if use_gym:
+            starts = (jax.device_get(initial_states(env, key, args.episodes).data)
+                      if args.paired else None)
             results["gymnasium"] = _summary(
                 gymnasium_returns(policy, gym_env, args.episodes, args.episode_seed, starts))
-        finally:
+    finally:
+        if gym_env is not None:
             gym_env.close()
     if args.paired:
         difference = np.subtract(results["ours"]["returns"], results["gymnasium"]["returns"])

@@ -68,13 +68,9 @@ import sac_jax  # noqa: E402
 from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
-from scripts._cli import Parser, positive_int  # noqa: E402
+from scripts._cli import MissingDependency, Parser, positive_int  # noqa: E402
 
 FORMATS = (".gif", ".mp4")
-
-
-class MissingDependency(Exception):
-    """A library or system package the requested output needs is not available."""
 
 
 def build_parser() -> argparse.ArgumentParser:
