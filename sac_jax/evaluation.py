@@ -8,13 +8,19 @@ import jax.numpy as jnp
 from sac_jax.agent import Agent
 
 
+def initial_states(env, key: jax.Array, num_episodes: int):
+    """The batched `EnvState` (leading axis num_episodes) that `evaluate(..., key,
+    num_episodes)` starts its episodes from."""
+    return jax.vmap(env.reset)(jax.random.split(key, num_episodes))
+
+
 def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int) -> jax.Array:
     """Undiscounted returns (num_episodes,) of the mean action scale * tanh(mu(s)) + bias.
 
     Runs `num_episodes` fresh episodes in parallel until each terminates or truncates (a
     `lax.while_loop` that stops when all have ended); rewards after an episode's end are ignored.
     """
-    states = jax.vmap(env.reset)(jax.random.split(key, num_episodes))
+    states = initial_states(env, key, num_episodes)
 
     def running(carry):
         _, alive, _ = carry

@@ -32,6 +32,7 @@ from sac_jax.config import field_docs  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, RunResult, run_training  # noqa: E402
+from scripts._cli import Parser  # noqa: E402
 
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
@@ -53,15 +54,8 @@ def _parse_field(hint: str):
     return {"int": int, "float": float, "str": str}[hint], hint.upper()
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse whose errors are one line on stderr (no usage block), exit code 2."""
-
-    def error(self, message):
-        self.exit(2, f"error: {message}\n")
-
-
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = Parser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--preset", default=None, choices=sorted(PRESETS),
                         help=f"base configuration (default {DEFAULT_PRESET})")
     parser.add_argument("--seeds", type=int, default=None,

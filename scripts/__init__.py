@@ -1,0 +1,1 @@
+"""Command-line scripts (train, evaluate, render); `scripts._cli` holds what they share."""

@@ -1,0 +1,186 @@
+"""Evaluate a saved policy in our JAX environment and in Gymnasium's.
+
+    python scripts/evaluate.py runs/pendulum                      # 10 episodes in each
+    python scripts/evaluate.py runs/pendulum --episodes 50 --which gymnasium
+    python scripts/evaluate.py runs/pendulum --paired --json      # same initial states
+
+Runs the deterministic policy a = scale * tanh(mu(s)) + bias of one of the run's seeds
+(`sac_jax.load_policy`) for N episodes and prints the undiscounted return, mean ± std over the
+episodes, of each environment:
+    ours       `envs.make(env)`, the N episodes in parallel in one jitted `sac_jax.evaluate`
+    gymnasium  `gymnasium.make(env)` (InvertedPendulum-v5/-v4, InvertedDoublePendulum-v5,
+               Pendulum-v1), stepped on the host one action at a time
+Ours draws its initial states from `--episode-seed`; Gymnasium resets with `seed=--episode-seed`
+(its own sampler, so the episodes differ). With `--paired` each Gymnasium episode instead starts
+from the initial state of the same episode of ours (MuJoCo's `set_state(qpos, qvel)`,
+Pendulum's `state`), so the returns are compared episode by episode.
+
+Gymnasium is an optional (test) dependency: pip install "gymnasium[mujoco]".
+Bad input (run directory, checkpoint, seed, values) ends with one line on stderr and exit 2; a
+missing dependency with one line and exit 1. Nothing is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import jax  # noqa: E402
+
+import envs  # noqa: E402
+import sac_jax  # noqa: E402
+from envs.pendulum import PendulumData  # noqa: E402
+from sac_jax import run_dir  # noqa: E402
+from sac_jax.evaluation import initial_states  # noqa: E402
+from scripts._cli import MissingDependency, Parser, positive_int  # noqa: E402
+
+GYMNASIUM_IDS = {name: name for name in (
+    "InvertedPendulum-v5", "InvertedPendulum-v4", "InvertedDoublePendulum-v5", "Pendulum-v1")}
+"""Gymnasium's id of each of our environments that has a Gymnasium twin (the same name)."""
+
+GYMNASIUM_MISSING = 'Gymnasium is not installed: pip install "gymnasium[mujoco]"'
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", metavar="RUN_DIR", help="run directory written by train.py")
+    parser.add_argument("--episodes", type=positive_int, default=10,
+                        help="episodes in each environment (default 10)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="which of the run's seeds to evaluate, 0..seeds-1 (default 0)")
+    parser.add_argument("--episode-seed", type=int, default=0,
+                        help="PRNG seed of the episodes' initial states (default 0)")
+    parser.add_argument("--which", choices=("ours", "gymnasium", "both"), default="both",
+                        help="environments to evaluate in (default both)")
+    parser.add_argument("--paired", action="store_true",
+                        help="start Gymnasium's episodes from ours' initial states (needs "
+                             "--which both)")
+    parser.add_argument("--json", action="store_true",
+                        help="print one JSON object (returns of every episode) instead of text")
+    return parser
+
+
+def our_returns(policy: sac_jax.SavedPolicy, env, episodes: int, key: jax.Array) -> np.ndarray:
+    """Returns (episodes,) of `sac_jax.evaluate` in our environment, started from
+    `initial_states(env, key, episodes)`."""
+    run = jax.jit(lambda params, key: sac_jax.evaluate(policy.agent, env, params, key, episodes))
+    return np.asarray(run(policy.actor_params, key), np.float64)
+
+
+def _start_from(unwrapped, data):
+    """Puts a Gymnasium environment (unwrapped, right after reset) into the physics state
+    `data` of one of our environments; returns its observation there."""
+    if isinstance(data, PendulumData):
+        unwrapped.state = np.array([data.theta, data.theta_dot], np.float64)
+    else:  # MJX: qpos (nq,), qvel (nv,); set_state runs mj_forward, as our reset does
+        unwrapped.set_state(np.asarray(data.qpos, np.float64), np.asarray(data.qvel, np.float64))
+    return unwrapped._get_obs()
+
+
+def gymnasium_returns(policy, gym_env, episodes: int, seed: int, starts=None) -> np.ndarray:
+    """Returns (episodes,) of `policy` in the Gymnasium environment `gym_env`, reset with
+    `seed` before the first episode; `starts`: per episode, a physics state of ours to start
+    from (`_start_from`), or None for Gymnasium's own initial states."""
+    returns = np.zeros(episodes)
+    for i in range(episodes):
+        obs, _ = gym_env.reset(seed=seed if i == 0 else None)
+        if starts is not None:
+            obs = _start_from(gym_env.unwrapped, jax.tree_util.tree_map(lambda x: x[i], starts))
+        done = False
+        while not done:
+            obs, reward, terminated, truncated, _ = gym_env.step(policy(obs))
+            returns[i] += float(reward)
+            done = terminated or truncated
+    return returns
+
+
+def _gymnasium_id(env_name: str) -> str:
+    if env_name not in GYMNASIUM_IDS:
+        raise ValueError(f"{env_name} has no Gymnasium counterpart (Gymnasium evaluation covers "
+                         f"{', '.join(GYMNASIUM_IDS)}); use --which ours")
+    return GYMNASIUM_IDS[env_name]
+
+
+def _make_gymnasium(gym_id: str):
+    """`gymnasium.make(gym_id)`; MissingDependency (one line) if Gymnasium or what the
+    environment needs is not installed."""
+    try:
+        import gymnasium
+    except ImportError:
+        raise MissingDependency(GYMNASIUM_MISSING) from None
+    try:
+        return gymnasium.make(gym_id)
+    except gymnasium.error.DependencyNotInstalled as error:  # e.g. no mujoco for MuJoCo envs
+        raise MissingDependency(f"{str(error).strip().splitlines()[0]}; "
+                                f"{GYMNASIUM_MISSING}") from None
+
+
+def _summary(returns: np.ndarray) -> dict:
+    return {"mean": float(returns.mean()), "std": float(returns.std()),
+            "returns": [float(r) for r in returns]}
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    use_ours, use_gym = args.which in ("ours", "both"), args.which in ("gymnasium", "both")
+    try:
+        if args.paired and args.which != "both":
+            raise ValueError(f"--paired compares ours with Gymnasium: needs --which both, "
+                             f"not {args.which}")
+        config, _ = run_dir.read_config(args.run)
+        gym_id = _gymnasium_id(config.env) if use_gym else None
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    sac_jax.enable_compilation_cache()
+    try:
+        policy = sac_jax.load_policy(args.run, args.seed)
+    except ValueError as error:  # also RunDirError and CheckpointError
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    try:  # before anything is compiled
+        gym_env = _make_gymnasium(gym_id) if use_gym else None
+    except MissingDependency as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+
+    results = {"run": args.run, "env": config.env, "seed": args.seed,
+               "episode_seed": args.episode_seed, "episodes": args.episodes}
+    key = jax.random.key(args.episode_seed)
+    env = envs.make(config.env)
+    try:
+        if use_ours:
+            results["ours"] = _summary(our_returns(policy, env, args.episodes, key))
+        if use_gym:
+            starts = (jax.device_get(initial_states(env, key, args.episodes).data)
+                      if args.paired else None)
+            results["gymnasium"] = _summary(
+                gymnasium_returns(policy, gym_env, args.episodes, args.episode_seed, starts))
+    finally:
+        if gym_env is not None:
+            gym_env.close()
+    if args.paired:
+        difference = np.subtract(results["ours"]["returns"], results["gymnasium"]["returns"])
+        results["max_abs_difference"] = float(np.max(np.abs(difference)))
+
+    if args.json:
+        print(json.dumps(results))
+        return 0
+    print(f"{config.env}, seed {args.seed} of {args.run}:")
+    for name in ("ours", "gymnasium"):
+        if name in results:
+            r = results[name]
+            print(f"{name}: {r['mean']:.1f} ± {r['std']:.1f} over {args.episodes} episodes")
+    if args.paired:
+        print(f"paired: max |ours - gymnasium| = {results['max_abs_difference']:.3g} per episode")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,30 @@
+"""Run directories for the tests of load_policy and the evaluate and render scripts."""
+
+from __future__ import annotations
+
+import jax
+
+from sac_jax import PRESETS, run_dir
+from sac_jax.train import make_train_parts
+from scripts import train as train_script
+
+TINY_PENDULUM = ["--preset", "pendulum", "--total-steps", "3000", "--eval-every", "1000",
+                 "--learning-starts", "1000", "--buffer-size", "3000", "--eval-episodes", "2"]
+
+
+def trained_pendulum(out: str) -> str:
+    """A 3000-step Pendulum-v1 run of scripts/train.py (a policy that has learned a little)."""
+    assert train_script.main(TINY_PENDULUM + ["--out", out]) == 0
+    return out
+
+
+def untrained(out: str, env: str, seeds: int = 1, **overrides) -> str:
+    """A run directory whose checkpoint is the freshly initialised state of `seeds` seeds on
+    `env` (preset `fast` with `overrides`): only the initialisation is compiled."""
+    config = PRESETS["fast"].replace(env=env, **overrides)
+    run_dir.create(out, config, preset="fast", seeds=seeds, seed=0)
+    init = jax.jit(jax.vmap(make_train_parts(config).init))
+    runner = init(jax.random.split(jax.random.key(0), seeds))
+    run_dir.save_checkpoint(out, runner, {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0,
+                                          "walls": {}})
+    return out

@@ -1,0 +1,126 @@
+"""scripts/evaluate.py on a small Pendulum-v1 run: ours is `sac_jax.evaluate` on the stored
+parameters; Gymnasium's Pendulum-v1 started from ours' initial states gives the same returns
+episode by episode; bad input ends with one line and a non-zero exit code."""
+
+import json
+import os
+import shutil
+import sys
+
+import gymnasium
+import jax
+import numpy as np
+import pytest
+
+import envs
+import sac_jax
+from sac_jax import run_dir
+from sac_jax.train import agent_for
+from scripts import evaluate as evaluate_script
+from tests.saved_runs import trained_pendulum
+
+PAIRED_TOLERANCE = 0.1
+"""|ours - Gymnasium| per Pendulum-v1 episode from the same initial state (returns ~ -1e3):
+float32 JAX against float64 NumPy over 200 steps of the same deterministic policy."""
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    return trained_pendulum(str(tmp_path_factory.mktemp("runs") / "pendulum"))
+
+
+def _json(capsys, argv):
+    assert evaluate_script.main(argv + ["--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_ours_is_sac_evaluate_on_the_stored_parameters(run, capsys):
+    result = _json(capsys, [run, "--which", "ours", "--episodes", "6", "--episode-seed", "3"])
+    config, _, runner, _ = run_dir.load_checkpoint(run)
+    agent, env = agent_for(config)
+    params = jax.tree_util.tree_map(lambda x: x[0], runner.sac.actor_params)
+    expected = sac_jax.evaluate(agent, env, params, jax.random.key(3), 6)
+    np.testing.assert_allclose(result["ours"]["returns"], expected, rtol=1e-6)
+    assert result["ours"]["mean"] == pytest.approx(float(np.mean(expected)), rel=1e-6)
+    assert "gymnasium" not in result
+
+
+def test_paired_gymnasium_episodes_match_ours(run, capsys):
+    result = _json(capsys, [run, "--episodes", "4", "--paired"])
+    ours, gym = np.array(result["ours"]["returns"]), np.array(result["gymnasium"]["returns"])
+    np.testing.assert_allclose(gym, ours, atol=PAIRED_TOLERANCE, rtol=0)
+    assert result["max_abs_difference"] == pytest.approx(np.max(np.abs(ours - gym)))
+    assert np.ptp(ours) > 10 * PAIRED_TOLERANCE  # the episodes differ: starts were really set
+
+
+def test_gymnasium_with_its_own_initial_states_and_the_text_output(run, capsys):
+    assert evaluate_script.main([run, "--episodes", "3", "--which", "gymnasium"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 2 and lines[1].startswith("gymnasium: ")
+    assert lines[1].endswith("over 3 episodes") and " ± " in lines[1]
+    returns = evaluate_script.gymnasium_returns(
+        sac_jax.load_policy(run), gymnasium.make("Pendulum-v1"), 3, 0)
+    assert lines[1] == f"gymnasium: {returns.mean():.1f} ± {returns.std():.1f} over 3 episodes"
+
+
+def _fails(capsys, argv, code, message):
+    """main(argv) exits with `code` and one line on stderr holding `message`."""
+    try:
+        result = evaluate_script.main(argv)
+    except SystemExit as exit_info:  # argparse
+        result = exit_info.code
+    err = capsys.readouterr().err
+    assert result == code, err
+    assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err
+
+
+def _bad_copy(run, tmp_path, checkpoint_bytes):
+    path = str(tmp_path / "copy")
+    shutil.copytree(run, path)
+    if checkpoint_bytes is None:
+        os.remove(os.path.join(path, run_dir.CHECKPOINT))
+    else:
+        with open(os.path.join(path, run_dir.CHECKPOINT), "wb") as f:
+            f.write(checkpoint_bytes)
+    return path
+
+
+def test_missing_run_directory(tmp_path, capsys):
+    _fails(capsys, [str(tmp_path / "nowhere")], 2, "no such run directory")
+
+
+def test_missing_checkpoint(run, tmp_path, capsys):
+    _fails(capsys, [_bad_copy(run, tmp_path, None), "--which", "ours"], 2, "not found")
+
+
+def test_corrupt_checkpoint(run, tmp_path, capsys):
+    _fails(capsys, [_bad_copy(run, tmp_path, b"\x00garbage" * 50), "--which", "ours"], 2,
+           "checkpoint")
+
+
+def test_bad_seed(run, capsys):
+    _fails(capsys, [run, "--seed", "1"], 2, "seed=1: run")
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "many"])
+def test_bad_episodes(run, capsys, value):
+    _fails(capsys, [run, "--episodes", value], 2, "argument --episodes")
+
+
+def test_paired_needs_both(run, capsys):
+    _fails(capsys, [run, "--which", "ours", "--paired"], 2, "--paired")
+
+
+def test_gymnasium_missing(run, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "gymnasium", None)  # import gymnasium -> ImportError
+    _fails(capsys, [run, "--which", "gymnasium"], 1, 'pip install "gymnasium[mujoco]"')
+    _fails(capsys, [run], 1, 'pip install "gymnasium[mujoco]"')
+
+
+def test_environment_without_a_gymnasium_twin(tmp_path, capsys):
+    path = str(tmp_path / "bullet")
+    run_dir.create(path, sac_jax.PRESETS["v1"], preset="v1", seeds=1, seed=0)
+    assert sac_jax.PRESETS["v1"].env == "InvertedPendulumBullet-v0"
+    assert "InvertedPendulumBullet-v0" in envs.registered()
+    _fails(capsys, [path], 2, "InvertedPendulumBullet-v0 has no Gymnasium counterpart")
+    _fails(capsys, [path, "--which", "gymnasium"], 2, "use --which ours")

@@ -1,0 +1,95 @@
+"""sac_jax.load_policy: the checkpoint's actor of the chosen seed as a numpy function, giving
+exactly `Agent.act`'s deterministic actions; clear errors for a bad run directory, checkpoint,
+seed or observation."""
+
+import os
+import shutil
+
+import jax
+import numpy as np
+import pytest
+
+import sac_jax
+from sac_jax import checkpoint, run_dir
+from sac_jax.train import agent_for
+from tests.saved_runs import trained_pendulum, untrained
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("runs")
+    return {"trained": trained_pendulum(str(root / "pendulum")),
+            "two_seeds": untrained(str(root / "two_seeds"), "Pendulum-v1", seeds=2)}
+
+
+def _stored_actions(path, seed, obs):
+    """`Agent.act` (jitted, no key: deterministic) on the actor parameters of `seed` read
+    straight from the checkpoint."""
+    config, _, runner, _ = run_dir.load_checkpoint(path)
+    agent, _ = agent_for(config)
+    params = jax.tree_util.tree_map(lambda x: x[seed], runner.sac.actor_params)
+    return np.asarray(jax.jit(agent.act)(params, obs))
+
+
+def _observations(n, seed=0):
+    rng = np.random.default_rng(seed)
+    theta = rng.uniform(-np.pi, np.pi, n)
+    return np.stack([np.cos(theta), np.sin(theta), rng.uniform(-8, 8, n)], 1).astype(np.float32)
+
+
+def test_actions_are_agent_act_on_the_stored_parameters(runs):
+    policy = sac_jax.load_policy(runs["trained"])
+    obs = _observations(16)
+    actions = policy(obs)
+    assert actions.shape == (16, 1) and actions.dtype == np.float32
+    np.testing.assert_array_equal(actions, _stored_actions(runs["trained"], 0, obs))
+    single = policy(obs[3].astype(np.float64))  # any real dtype; one observation
+    assert single.shape == (1,)
+    np.testing.assert_array_equal(single, _stored_actions(runs["trained"], 0, obs[3]))
+    assert np.all(np.abs(actions) <= 2.0) and np.ptp(actions) > 0  # Pendulum's torque bound
+
+
+def test_seed_selects_that_seeds_actor(runs):
+    obs = _observations(8, seed=1)
+    first, second = (sac_jax.load_policy(runs["two_seeds"], seed=s) for s in (0, 1))
+    np.testing.assert_array_equal(second(obs), _stored_actions(runs["two_seeds"], 1, obs))
+    assert not np.allclose(first(obs), second(obs))
+    assert (second.seed, second.info["seeds"], second.config.env) == (1, 2, "Pendulum-v1")
+
+
+@pytest.mark.parametrize("seed", [-1, 2, 1.0, True, "0"])
+def test_a_seed_the_run_does_not_have_is_refused(runs, seed):
+    with pytest.raises(ValueError, match=rf"seed={seed!r}: run .* has seeds 0\.\.1"):
+        sac_jax.load_policy(runs["two_seeds"], seed=seed)
+
+
+@pytest.mark.parametrize("shape", [(4,), (2, 2), (2, 3, 3), ()])
+def test_an_observation_of_the_wrong_shape_is_refused(runs, shape):
+    policy = sac_jax.load_policy(runs["two_seeds"])
+    with pytest.raises(ValueError, match=r"expected \(3,\) or \(batch, 3\) for Pendulum-v1"):
+        policy(np.zeros(shape))
+
+
+def _run_without_checkpoint(path):
+    run_dir.create(str(path), sac_jax.PRESETS["pendulum"], preset="pendulum", seeds=1, seed=0)
+    return str(path)
+
+
+def test_missing_run_directory_and_checkpoint(tmp_path):
+    with pytest.raises(run_dir.RunDirError, match="no such run directory"):
+        sac_jax.load_policy(str(tmp_path / "nowhere"))
+    with pytest.raises(checkpoint.CheckpointError, match="not found"):
+        sac_jax.load_policy(_run_without_checkpoint(tmp_path / "empty"))
+
+
+def test_corrupt_and_truncated_checkpoints(tmp_path, runs):
+    with open(os.path.join(runs["two_seeds"], run_dir.CHECKPOINT), "rb") as f:
+        good = f.read()
+    for name, data, message in [("garbage", os.urandom(1000), "unreadable|not a sac-jax"),
+                                ("truncated", good[:len(good) // 2], "unreadable")]:
+        path = str(tmp_path / name)
+        shutil.copytree(runs["two_seeds"], path)
+        with open(os.path.join(path, run_dir.CHECKPOINT), "wb") as f:
+            f.write(data)
+        with pytest.raises(checkpoint.CheckpointError, match=message):
+            sac_jax.load_policy(path)
