@@ -9,6 +9,7 @@
     alpha, log_alpha     |alpha_jax - alpha_ref| / alpha_ref, |log alpha_jax - log alpha_ref|
     buffer               max abs difference over every stored field of the two replay buffers
     updates, buffer_size updates done and transitions held, by sac_jax and the reference
+    params_by_chunk      params after each chunk of the run (at env_steps_by_chunk)
     <mutation>/<error>   the same against a reference with a planted bug (`MUTATIONS`)
 
 Run as `JAX_ENABLE_X64=1 python -m tests.equivalence_loop [name ...]` for float64 (with the
@@ -79,8 +80,11 @@ passes global_step + 1 to the update (the actor block on the other half of the u
 "stale_obs" see `_StaleObsOnce`."""
 
 
-def _run_reference(config, env, initial_env, draws, torch_dtype, key_seed, mutation=None):
-    """Seed 002's loop from the same initial weights (seed `key_seed`) and environment state."""
+def _run_reference(config, env, initial_env, draws, torch_dtype, key_seed, ours, mutation=None
+                   ) -> Dict[str, object]:
+    """Seed 002's loop from the same initial weights (seed `key_seed`) and environment state;
+    the errors against `ours` (sac_jax's runner after each chunk of `chunk_iterations`
+    iterations) at the end, and the parameter errors at every chunk's end."""
     ref = CleanRLSAC(env.observation_size, env.action_size, env.action_low, env.action_high,
                      seed=key_seed, dtype=torch_dtype, hidden=HIDDEN)
     if mutation == "policy_delay_phase":
@@ -88,9 +92,14 @@ def _run_reference(config, env, initial_env, draws, torch_dtype, key_seed, mutat
         ref.update = lambda data, noise, global_step: update(data, noise, global_step + 1)
     buffer_class = _StaleObsOnce if mutation == "stale_obs" else loop.ReplayBuffer
     rb = buffer_class(config.buffer_size, env.observation_size, env.action_size, config.num_envs)
-    updates = loop.train(ref, loop.JaxVectorEnv(envs.VectorEnv(env, config.num_envs), initial_env),
-                         rb, draws, config.prefill_iterations, torch_dtype)
-    return ref, rb, updates
+    steps = loop.train(ref, loop.JaxVectorEnv(envs.VectorEnv(env, config.num_envs), initial_env),
+                       rb, draws, config.prefill_iterations, torch_dtype)
+    chunk_iterations = len(draws["random_action"]) // len(ours)
+    by_chunk = []
+    for iterations, updates in enumerate(steps, start=1):
+        if iterations % chunk_iterations == 0:
+            by_chunk.append(_errors(ours[iterations // chunk_iterations - 1], ref, rb, updates))
+    return dict(by_chunk[-1], params_by_chunk=[e["params"] for e in by_chunk])
 
 
 def _errors(runner, ref, rb, updates) -> Dict[str, float]:
@@ -139,17 +148,17 @@ def _measure(name: str, dtype: str, mutations, key_seed: int) -> Dict[str, float
                          seed=key_seed, dtype=torch_dtype, hidden=HIDDEN)
     runner = runner.replace(sac=state_from_reference(agent, initial, np.dtype(dtype)))
 
-    @jax.jit
-    def run(runner):  # what make_train's train does after init
-        return jax.lax.scan(lambda r, _: (parts.chunk(r), None), runner, None,
-                            length=parts.num_chunks)[0]
-
-    runner = jax.device_get(run(runner))
+    chunk = jax.jit(parts.chunk)  # driven from the host chunk by chunk, as sac_jax.run does
+    ours = []
+    for _ in range(parts.num_chunks):
+        runner = chunk(runner)
+        ours.append(jax.device_get(runner))
     stream = _numpy(draws)
-    errors = {"env_steps": int(runner.iteration) * config.num_envs}
+    errors = {"env_steps": int(runner.iteration) * config.num_envs,
+              "env_steps_by_chunk": [int(r.iteration) * config.num_envs for r in ours]}
     for mutation in (None,) + tuple(mutations):
-        found = _errors(runner, *_run_reference(config, env, initial_env, stream, torch_dtype,
-                                                key_seed, mutation))
+        found = _run_reference(config, env, initial_env, stream, torch_dtype, key_seed, ours,
+                               mutation)
         errors.update({k if mutation is None else f"{mutation}/{k}": v for k, v in found.items()})
     return errors
 

@@ -30,7 +30,7 @@ SyncVectorEnv is to the seed (the environments are tested against Gymnasium sepa
 
 from __future__ import annotations
 
-from typing import Dict
+from typing import Dict, Iterator
 
 import jax
 import numpy as np
@@ -103,9 +103,10 @@ class ReplayBuffer:
 
 
 def train(agent: CleanRLSAC, envs_: JaxVectorEnv, rb: ReplayBuffer, draws: Dict[str, np.ndarray],
-          learning_starts: int, dtype=torch.float32) -> int:
+          learning_starts: int, dtype=torch.float32) -> Iterator[int]:
     """Runs the loop (see the module docstring) for as many vector steps as `draws` has, in
-    place on `agent` and `rb`; returns the number of updates done.
+    place on `agent` and `rb`, yielding the number of updates done after each vector step (so
+    a caller can look at the agent in between).
 
     draws: numpy arrays with a leading axis of vector steps T, as `sac_jax.record_draws`
     makes them: random_action (T, n, A), action_noise (T, n, A), batch_index (T, U, B),
@@ -141,4 +142,4 @@ def train(agent: CleanRLSAC, envs_: JaxVectorEnv, rb: ReplayBuffer, draws: Dict[
                                     "actor": [t(x) for x in noise["actor"]],
                                     "temperature": [t(x) for x in noise["temperature"]]},
                              global_step=learning_starts + updates)
-    return updates
+        yield updates
