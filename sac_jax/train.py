@@ -124,20 +124,24 @@ def make_train_parts(config: SACConfig,
         return (jax.random.uniform(k_random, (n, agent.action_size), minval=low, maxval=high),
                 jax.random.normal(k_act, (n, agent.action_size), jnp.float32))
 
+    def learning_draws(k_learn: jax.Array, size: jax.Array) -> Tuple[jax.Array, jax.Array]:
+        """(batch_index of `Draws` for a buffer of `size`, the U keys the updates draw their
+        noise from)."""
+        k_batch, k_noise = jax.random.split(k_learn)
+        return (rb.sample_indices(k_batch, size, (updates, batch_size)),
+                jax.random.split(k_noise, updates))
+
     def evaluates_after(iterations_done: jax.Array) -> jax.Array:
         after_prefill = iterations_done - prefill
         return (after_prefill > 0) & (after_prefill % period == 0)
 
     def learn(sac: SACState, buffer: ReplayBuffer, key: jax.Array, recorded: Optional[Draws]):
         # All minibatches of the iteration are gathered at once, then scanned over.
-        if recorded is None:
-            k_batch, k_noise = jax.random.split(key)
-            index = rb.sample_indices(k_batch, buffer.size, (updates, batch_size))
-            randomness = jax.random.split(k_noise, updates)  # sac_update draws from each key
-        else:
-            index, randomness = recorded.batch_index, recorded.update_noise
-        sac, metrics = jax.lax.scan(
-            lambda sac, xs: sac_update(agent, sac, *xs), sac, (rb.gather(buffer, index), randomness))
+        # randomness: U keys (sac_update draws its noise from each) or the recorded noise
+        index, randomness = (learning_draws(key, buffer.size) if recorded is None
+                             else (recorded.batch_index, recorded.update_noise))
+        sac, metrics = jax.lax.scan(lambda sac, xs: sac_update(agent, sac, *xs), sac,
+                                    (rb.gather(buffer, index), randomness))
         # float32 whatever the parameters' dtype (float64 in the x64 equivalence test)
         return sac, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
                      else nan for name in METRIC_NAMES}
@@ -192,13 +196,11 @@ def make_train_parts(config: SACConfig,
     def record_draws(key: jax.Array) -> Draws:
         def one(key, i):
             key, k_act, k_random, k_learn = jax.random.split(key, 4)
-            k_batch, k_noise = jax.random.split(k_learn)
             size = jnp.minimum((i + 1) * n, config.buffer_size)  # after this iteration's add
-            draws = Draws(
-                *acting_draws(k_act, k_random),
-                batch_index=rb.sample_indices(k_batch, size, (updates, batch_size)),
-                update_noise=jax.vmap(lambda k: sample_noise(agent, k, batch_size))(
-                    jax.random.split(k_noise, updates)))
+            index, noise_keys = learning_draws(k_learn, size)
+            draws = Draws(*acting_draws(k_act, k_random), batch_index=index,
+                          update_noise=jax.vmap(lambda k: sample_noise(agent, k, batch_size))(
+                              noise_keys))
             key = jax.lax.cond(evaluates_after(i + 1), lambda k: jax.random.split(k)[0],
                                lambda k: k, key)
             return key, draws
