@@ -2,14 +2,15 @@
 (tests/reference/loop.py), both fed the same recorded stream of random draws
 (`sac_jax.record_draws`) from the same initial weights and environment state.
 
-`measure(name, dtype)` runs both for the whole run of `CONFIGS[name]` and returns:
+`measure(name, dtype, mutations)` runs both for the whole run of `CONFIGS[name]` (sac_jax
+chunk by chunk from the host, as `sac_jax.run` drives it) and returns, at the end:
 
     params, params_abs   per tensor max|theta_jax - theta_ref| / max|theta_ref| (max over
                          tensors) and max abs, over actor, critics and critic targets
     alpha, log_alpha     |alpha_jax - alpha_ref| / alpha_ref, |log alpha_jax - log alpha_ref|
     buffer               max abs difference over every stored field of the two replay buffers
     updates, buffer_size updates done and transitions held, by sac_jax and the reference
-    params_by_chunk      params after each chunk of the run (at env_steps_by_chunk)
+    params_by_chunk      `params` after each chunk of the run (at env_steps_by_chunk)
     <mutation>/<error>   the same against a reference with a planted bug (`MUTATIONS`)
 
 Run as `JAX_ENABLE_X64=1 python -m tests.equivalence_loop [name ...]` for float64 (with the
