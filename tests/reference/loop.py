@@ -7,7 +7,7 @@ The seed's loop, per vector step `global_step` (n environments at once):
              else actor.get_action(obs)
     step     envs.step(actions) -> next_obs, rewards, terminations, truncations, infos
              (SyncVectorEnv; an ended copy restarts at once and next_obs is its reset obs)
-    store    rb.add(obs, real_next_obs, actions, rewards, terminations, infos) into
+    store    rb.add(obs, next_obs.copy(), actions, rewards, terminations, infos) into
              stable-baselines3's ReplayBuffer(n_envs=n, handle_timeout_termination=False)
     obs = next_obs
     learn    data = rb.sample(batch_size); the update block (`CleanRLSAC.update`)
@@ -20,8 +20,9 @@ behaviour):
   vector step (the seed: 1), and the k-th update gets the global_step learning_starts + k,
   which is the seed's own global_step for its k-th update when there is one per step (the
   policy delay `global_step % policy_frequency == 0` then falls on the same updates);
-* real_next_obs: a copy truncated by the time limit stores its final observation (CleanRL's
-  `infos["final_observation"]` fix, which the seed dropped).
+* real_next_obs instead of next_obs: a copy truncated by the time limit stores its final
+  observation, not its reset one (CleanRL's `infos["final_observation"]` fix, which the seed
+  dropped).
 
 `ReplayBuffer` is written after stable-baselines3's (its storage layout and dtypes);
 `JaxVectorEnv` presents one of our JAX environments to this loop as the black box
