@@ -17,7 +17,11 @@ def soft_q_target(reward: jax.Array, terminated: jax.Array, next_value: jax.Arra
     v2: V(s') = min_j Q-bar_j(s', a') - alpha log pi(a'|s'), a' ~ pi(.|s').
     v1: V(s') = V-bar(s'), the target value network.
     d is `terminated` only: a truncated episode still bootstraps.
+    Computed in the common dtype of the three arrays: with float64 networks and a float32
+    replay buffer, c and gamma are not rounded to float32.
     """
+    dtype = jnp.result_type(reward, terminated, next_value)
+    reward, terminated = reward.astype(dtype), terminated.astype(dtype)
     return reward_scale * reward + (1.0 - terminated) * gamma * next_value
 
 

@@ -1,7 +1,9 @@
 """A fixed-capacity ring buffer of transitions held in device memory, as a pytree.
 
-`init`, `add` and `sample` are pure: each returns a new buffer (inside `lax.scan` XLA updates the
-carried arrays in place). Every array of the stored pytree has a leading capacity axis C.
+`init`, `add` and `sample` are pure: `add` returns a new buffer (inside `lax.scan` XLA updates
+the carried arrays in place); `sample` is `gather` at `sample_indices`, so a caller can also
+gather at slots drawn elsewhere (a recorded stream, see `sac_jax.train.Draws`). Every array
+of the stored pytree has a leading capacity axis C.
 """
 
 from __future__ import annotations
@@ -62,11 +64,22 @@ def add(buffer: ReplayBuffer, batch: Transition) -> ReplayBuffer:
                         size=jnp.minimum(buffer.size + n, capacity))
 
 
+def sample_indices(key: jax.Array, size: jax.Array, batch_shape: Union[int, Tuple[int, ...]]
+                   ) -> jax.Array:
+    """int32 slots of shape `batch_shape` drawn uniformly with replacement from the filled slots
+    [0, size) (slot 0 while size is 0)."""
+    shape = (batch_shape,) if isinstance(batch_shape, int) else tuple(batch_shape)
+    return jax.random.randint(key, shape, 0, jnp.maximum(size, 1))
+
+
+def gather(buffer: ReplayBuffer, indices: jax.Array) -> Transition:
+    """The transitions in slots `indices` (any integer shape), with leading axes that shape."""
+    return jax.tree_util.tree_map(lambda d: d[indices], buffer.data)
+
+
 def sample(buffer: ReplayBuffer, key: jax.Array, batch_shape: Union[int, Tuple[int, ...]]
            ) -> Transition:
     """Transitions drawn uniformly with replacement from the filled slots [0, size), with leading
-    axes `batch_shape` (B or, for several minibatches at once, (U, B)). Sampling an empty buffer
-    returns slot 0 (zeros); `make_train` never does."""
-    shape = (batch_shape,) if isinstance(batch_shape, int) else tuple(batch_shape)
-    idx = jax.random.randint(key, shape, 0, jnp.maximum(buffer.size, 1))
-    return jax.tree_util.tree_map(lambda d: d[idx], buffer.data)
+    axes `batch_shape` (B or, for several minibatches at once, (U, B)): `gather` at
+    `sample_indices`. Sampling an empty buffer returns slot 0 (zeros); `make_train` never does."""
+    return gather(buffer, sample_indices(key, buffer.size, batch_shape))

@@ -18,6 +18,13 @@ over `chunk_iterations` iterations (a divisor of both the prefill and the evalua
 every evaluation falls at the end of a chunk). `train` scans `chunk`; a host loop can instead
 call a jitted `chunk` repeatedly to report progress between chunks, with no host callback in
 the program, so JAX's persistent compilation cache can keep it (`sac_jax.run` does this).
+
+Replay: every random draw of the loop (prefill actions, policy noise, minibatch slots, update
+noise) can come from a recorded stream instead of the PRNG: `record_draws(config, key)` returns
+the `Draws` that `train(key)` makes, and `train(key, draws)` uses the given ones. A reference
+implementation fed the same stream must then reproduce the run (tests/test_equivalence_loop.py).
+Evaluation and environment resets keep their keys (split from the same chain as without a
+stream).
 """
 
 from __future__ import annotations
@@ -35,15 +42,36 @@ from sac_jax.agent import Agent, SACState, make_agent
 from sac_jax.config import SACConfig
 from sac_jax.evaluation import evaluate
 from sac_jax.replay_buffer import ReplayBuffer, Transition
-from sac_jax.updates import sac_update
+from sac_jax.updates import sac_update, sample_noise
 
 METRIC_NAMES = ("critic_loss", "q", "actor_loss", "entropy", "alpha_loss", "alpha", "value_loss")
+
+
+class Draws(flax.struct.PyTreeNode):
+    """The random draws of one training iteration (n = num_envs, A = action size,
+    U = updates_per_step, B = batch_size). A recorded stream holds them for every iteration of
+    a run, each field with a leading axis T = total iterations (`record_draws`).
+
+    random_action (n, A)  U(low, high): the actions during the prefill
+    action_noise (n, A)   standard normal eps of the policy's action a = f(eps; s) afterwards
+    batch_index (U, B)    int32 replay slots of the iteration's U minibatches
+    update_noise          for each of the U `sac_update`s the dict of `sample_noise`, every
+                          leaf with a leading axis U
+    Each iteration holds all of them; the prefill uses no batch_index, update_noise or
+    action_noise, and training no random_action.
+    """
+
+    random_action: jax.Array
+    action_noise: jax.Array
+    batch_index: jax.Array
+    update_noise: Dict[str, jax.Array]
 
 
 class RunnerState(flax.struct.PyTreeNode):
     """Everything a run carries between iterations. `iteration` counts iterations done;
     `sums` accumulates the current evaluation period's metrics as (sum, count) pairs;
-    `outputs` holds one slot per evaluation point."""
+    `outputs` holds one slot per evaluation point; `draws`, if not None, is the recorded
+    stream the iterations take their random draws from (indexed by `iteration`)."""
 
     sac: SACState
     env: envs.VectorState
@@ -52,16 +80,19 @@ class RunnerState(flax.struct.PyTreeNode):
     iteration: jax.Array
     sums: Dict[str, jax.Array]
     outputs: Dict[str, jax.Array]
+    draws: Optional[Draws] = None
 
 
 class TrainParts(NamedTuple):
-    """`init(key) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations` iterations
-    (evaluating where an evaluation period ends); `num_chunks` chunks make the run."""
+    """`init(key, draws=None) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations`
+    iterations (evaluating where an evaluation period ends); `num_chunks` chunks make the run;
+    `record_draws(key) -> Draws`, the stream of the run from `init(key)` (see `record_draws`)."""
 
-    init: Callable[[jax.Array], RunnerState]
+    init: Callable[..., RunnerState]
     chunk: Callable[[RunnerState], RunnerState]
     chunk_iterations: int
     num_chunks: int
+    record_draws: Callable[[jax.Array], Draws]
 
 
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:
@@ -79,19 +110,41 @@ def make_train_parts(config: SACConfig,
     vec = envs.VectorEnv(env, config.num_envs)
     low, high = jnp.asarray(agent.action_low), jnp.asarray(agent.action_high)
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
+    updates, batch_size = config.updates_per_step, config.batch_size
     chunk_iterations = math.gcd(prefill, period)
+    num_iterations = prefill + config.num_evals * period
     sum_names = METRIC_NAMES + ("train_return",)
     nan = jnp.float32(jnp.nan)
 
-    def learn(sac: SACState, buffer: ReplayBuffer, key: jax.Array):
+    # The key chain: init splits (k_sac, k_env, k_run); each iteration splits the run key into
+    # (key, k_act, k_random, k_learn), k_learn into (k_batch, k_noise); each evaluation splits
+    # (key, k_eval). `record_draws` follows the same chain.
+    def acting_draws(k_act: jax.Array, k_random: jax.Array) -> Tuple[jax.Array, jax.Array]:
+        """(random_action, action_noise) of `Draws`; eps as `Agent.act` draws it."""
+        return (jax.random.uniform(k_random, (n, agent.action_size), minval=low, maxval=high),
+                jax.random.normal(k_act, (n, agent.action_size), jnp.float32))
+
+    def learning_draws(k_learn: jax.Array, size: jax.Array) -> Tuple[jax.Array, jax.Array]:
+        """(batch_index of `Draws` for a buffer of `size`, the U keys the updates draw their
+        noise from)."""
+        k_batch, k_noise = jax.random.split(k_learn)
+        return (rb.sample_indices(k_batch, size, (updates, batch_size)),
+                jax.random.split(k_noise, updates))
+
+    def evaluates_after(iterations_done: jax.Array) -> jax.Array:
+        after_prefill = iterations_done - prefill
+        return (after_prefill > 0) & (after_prefill % period == 0)
+
+    def learn(sac: SACState, buffer: ReplayBuffer, key: jax.Array, recorded: Optional[Draws]):
         # All minibatches of the iteration are gathered at once, then scanned over.
-        k_batch, k_noise = jax.random.split(key)
-        batches = rb.sample(buffer, k_batch, (config.updates_per_step, config.batch_size))
-        sac, metrics = jax.lax.scan(
-            lambda sac, xs: sac_update(agent, sac, *xs), sac,
-            (batches, jax.random.split(k_noise, config.updates_per_step)))
-        return sac, {name: jnp.nanmean(metrics[name]) if name in metrics else nan
-                     for name in METRIC_NAMES}
+        # randomness: U keys (sac_update draws its noise from each) or the recorded noise
+        index, randomness = (learning_draws(key, buffer.size) if recorded is None
+                             else (recorded.batch_index, recorded.update_noise))
+        sac, metrics = jax.lax.scan(lambda sac, xs: sac_update(agent, sac, *xs), sac,
+                                    (rb.gather(buffer, index), randomness))
+        # float32 whatever the parameters' dtype (float64 in the x64 equivalence test)
+        return sac, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
+                     else nan for name in METRIC_NAMES}
 
     def evaluate_period(runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
@@ -109,16 +162,22 @@ def make_train_parts(config: SACConfig,
     def iteration(runner: RunnerState, _):
         learning = runner.iteration >= prefill
         key, k_act, k_random, k_learn = jax.random.split(runner.key, 4)
+        if runner.draws is None:
+            recorded = None
+            random_action, action_noise = acting_draws(k_act, k_random)
+        else:
+            recorded = jax.tree_util.tree_map(lambda x: x[runner.iteration], runner.draws)
+            random_action, action_noise = recorded.random_action, recorded.action_noise
         obs = runner.env.env_state.obs
-        action = jnp.where(learning, agent.act(runner.sac.actor_params, obs, k_act),
-                           jax.random.uniform(k_random, (n, agent.action_size), minval=low,
-                                              maxval=high))
+        action = jnp.where(
+            learning, agent.sample_action(runner.sac.actor_params, obs, action_noise)[0],
+            random_action)
         env_state, step = vec.step(runner.env, action)
         buffer = rb.add(runner.buffer, Transition(
             obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
             terminated=step.terminated.astype(jnp.float32)))
         sac, metrics = jax.lax.cond(
-            learning, lambda sac: learn(sac, buffer, k_learn),
+            learning, lambda sac: learn(sac, buffer, k_learn, recorded),
             lambda sac: (sac, {name: nan for name in METRIC_NAMES}), runner.sac)
         metrics["train_return"] = jnp.sum(jnp.where(step.done, step.episode_return, 0.0))
         counts = {name: jnp.isfinite(m).astype(jnp.float32) for name, m in metrics.items()}
@@ -131,11 +190,26 @@ def make_train_parts(config: SACConfig,
 
     def chunk(runner: RunnerState) -> RunnerState:
         runner, _ = jax.lax.scan(iteration, runner, None, length=chunk_iterations)
-        after_prefill = runner.iteration - prefill
-        return jax.lax.cond((after_prefill > 0) & (after_prefill % period == 0),
-                            evaluate_period, lambda r: r, runner)
+        return jax.lax.cond(evaluates_after(runner.iteration), evaluate_period, lambda r: r,
+                            runner)
 
-    def init(key: jax.Array) -> RunnerState:
+    def record_draws(key: jax.Array) -> Draws:
+        def one(key, i):
+            key, k_act, k_random, k_learn = jax.random.split(key, 4)
+            size = jnp.minimum((i + 1) * n, config.buffer_size)  # after this iteration's add
+            index, noise_keys = learning_draws(k_learn, size)
+            draws = Draws(*acting_draws(k_act, k_random), batch_index=index,
+                          update_noise=jax.vmap(lambda k: sample_noise(agent, k, batch_size))(
+                              noise_keys))
+            key = jax.lax.cond(evaluates_after(i + 1), lambda k: jax.random.split(k)[0],
+                               lambda k: k, key)
+            return key, draws
+
+        return jax.lax.scan(one, jax.random.split(key, 3)[2], jnp.arange(num_iterations))[1]
+
+    def init(key: jax.Array, draws: Optional[Draws] = None) -> RunnerState:
+        if draws is not None:
+            _check_draws(draws, jax.eval_shape(record_draws, key))
         k_sac, k_env, k_run = jax.random.split(key, 3)
         env_state = vec.reset(k_env)
         example = Transition(obs=env_state.env_state.obs[0],
@@ -148,28 +222,56 @@ def make_train_parts(config: SACConfig,
             key=k_run, iteration=jnp.int32(0), sums={name: (zero, zero) for name in sum_names},
             outputs={"env_steps": jnp.zeros(config.num_evals, jnp.int32),
                      **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
-                        for name in sum_names + ("eval_return",)}})
+                        for name in sum_names + ("eval_return",)}},
+            draws=draws)
 
-    total = prefill + config.num_evals * period
-    return TrainParts(init, chunk, chunk_iterations, total // chunk_iterations)
+    return TrainParts(init, chunk, chunk_iterations, num_iterations // chunk_iterations,
+                      record_draws)
+
+
+def _check_draws(draws: Draws, expected: Draws) -> None:
+    """ValueError naming the first field of `draws` whose shape (or kind: integer slots, float
+    noise) differs from the stream `record_draws` makes for this configuration."""
+    paths = jax.tree_util.tree_flatten_with_path(expected)[0]
+    leaves, treedef = jax.tree_util.tree_flatten(draws)
+    if treedef != jax.tree_util.tree_structure(expected):
+        raise ValueError(f"draws has structure {treedef}, expected that of record_draws: "
+                         f"{jax.tree_util.tree_structure(expected)}")
+    for (path, want), got in zip(paths, leaves):
+        kind = jnp.integer if jnp.issubdtype(want.dtype, jnp.integer) else jnp.floating
+        if jnp.shape(got) != want.shape or not jnp.issubdtype(jnp.result_type(got), kind):
+            raise ValueError(f"draws{jax.tree_util.keystr(path)} has shape {jnp.shape(got)} and "
+                             f"dtype {jnp.result_type(got)}, expected shape {want.shape} of "
+                             f"{kind.__name__} (leading axis: the run's iterations)")
+
+
+def record_draws(config: SACConfig, key: jax.Array) -> Draws:
+    """The random draws `make_train(config)(key)` makes, iteration by iteration: a `Draws` with
+    a leading axis T = prefill_iterations + num_evals * iterations_per_eval. `train(key, draws)`
+    with this stream gives the same run as `train(key)`; feeding it to another implementation
+    replays the run there (batch_index are slots of the ring buffer, filled num_envs at a time
+    in order from slot 0). Pure and jit-able."""
+    return make_train_parts(config).record_draws(key)
 
 
 def make_train(config: SACConfig,
                progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None):
-    """Returns `train(key) -> (RunnerState, metrics)`, the whole run as one scan.
+    """Returns `train(key, draws=None) -> (RunnerState, metrics)`, the whole run as one scan.
 
     metrics: arrays with a leading axis of `config.num_evals` evaluation points:
     `env_steps` (environment steps done), `eval_return` (mean deterministic return over
     `eval_episodes`), `train_return` (mean return of training episodes ended in the period, NaN
     if none), and the period means of the update metrics in `METRIC_NAMES` (NaN where unused).
+    `draws`, if given, is a recorded stream (`record_draws`) that replaces the PRNG draws of
+    acting and learning; a stream of the wrong shape raises ValueError.
     `progress`, if given, is called on the host with each evaluation point's metrics (through
     `jax.debug.callback`; under `vmap` once per seed). A program with a host callback is not
     kept by JAX's persistent compilation cache; `sac_jax.run` reports progress between chunks.
     """
     parts = make_train_parts(config, progress)
 
-    def train(key: jax.Array):
-        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key), None,
+    def train(key: jax.Array, draws: Optional[Draws] = None):
+        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key, draws), None,
                               length=parts.num_chunks)[0]
         return runner, runner.outputs
 

@@ -65,3 +65,13 @@ def test_sample_with_a_batch_shape_of_several_minibatches():
     buffer = rb.add(_empty(16), _batch(0, 16))
     batch = rb.sample(buffer, jax.random.key(1), (4, 32))
     assert batch.obs.shape == (4, 32, 3) and batch.reward.shape == (4, 32)
+
+
+def test_gather_reads_the_given_slots_and_sample_is_gather_at_sample_indices():
+    buffer = rb.add(_empty(16), _batch(0, 16))
+    slots = jnp.array([[3, 3], [15, 0]])
+    np.testing.assert_array_equal(rb.gather(buffer, slots).reward, [[3, 3], [15, 0]])
+    key = jax.random.key(2)
+    np.testing.assert_array_equal(
+        rb.sample(buffer, key, (4, 8)).obs,
+        rb.gather(buffer, rb.sample_indices(key, buffer.size, (4, 8))).obs)

@@ -10,7 +10,8 @@ steps, each followed by an alpha step. Polyak (tau 0.005) of both critic targets
 Adam: critics and alpha at q_lr = 1e-3, actor at policy_lr = 3e-4.
 
 The only change to the seed: `rsample()` and the `no_grad` resample take explicit standard
-normal noise (u = mean + eps * std, which is what `Normal.rsample` computes).
+normal noise (u = mean + eps * std, which is what `Normal.rsample` computes). The hidden width
+(the seed's 256) is a parameter, so the training-loop test can use small networks.
 """
 
 from __future__ import annotations
@@ -39,11 +40,11 @@ class ReplayBufferSamples(NamedTuple):
 
 
 class SoftQNetwork(nn.Module):
-    def __init__(self, obs_size: int, action_size: int):
+    def __init__(self, obs_size: int, action_size: int, hidden: int = 256):
         super().__init__()
-        self.fc1 = nn.Linear(obs_size + action_size, 256)
-        self.fc2 = nn.Linear(256, 256)
-        self.fc3 = nn.Linear(256, 1)
+        self.fc1 = nn.Linear(obs_size + action_size, hidden)
+        self.fc2 = nn.Linear(hidden, hidden)
+        self.fc3 = nn.Linear(hidden, 1)
 
     def forward(self, x, a):
         x = torch.cat([x, a], 1)
@@ -57,12 +58,12 @@ class SoftQNetwork(nn.Module):
 
 
 class Actor(nn.Module):
-    def __init__(self, obs_size: int, action_size: int, low, high):
+    def __init__(self, obs_size: int, action_size: int, low, high, hidden: int = 256):
         super().__init__()
-        self.fc1 = nn.Linear(obs_size, 256)
-        self.fc2 = nn.Linear(256, 256)
-        self.fc_mean = nn.Linear(256, action_size)
-        self.fc_logstd = nn.Linear(256, action_size)
+        self.fc1 = nn.Linear(obs_size, hidden)
+        self.fc2 = nn.Linear(hidden, hidden)
+        self.fc_mean = nn.Linear(hidden, action_size)
+        self.fc_logstd = nn.Linear(hidden, action_size)
         # action rescaling
         low, high = np.asarray(low, np.float32), np.asarray(high, np.float32)
         self.register_buffer("action_scale", torch.tensor((high - low) / 2.0, dtype=torch.float32))
@@ -100,17 +101,17 @@ class CleanRLSAC:
 
     def __init__(self, obs_size: int, action_size: int, low, high, seed: int = 0,
                  dtype=torch.float32, gamma=0.99, tau=0.005, policy_lr=3e-4, q_lr=1e-3,
-                 policy_frequency=2, target_network_frequency=1):
+                 policy_frequency=2, target_network_frequency=1, hidden=256):
         torch.manual_seed(seed)
         self.gamma, self.tau = gamma, tau
         self.policy_frequency = policy_frequency
         self.target_network_frequency = target_network_frequency
         self.target_entropy = -torch.prod(torch.Tensor((action_size,))).item()
-        self.actor = Actor(obs_size, action_size, low, high).to(dtype)
-        self.qf1 = SoftQNetwork(obs_size, action_size).to(dtype)
-        self.qf2 = SoftQNetwork(obs_size, action_size).to(dtype)
-        self.qf1_target = SoftQNetwork(obs_size, action_size).to(dtype)
-        self.qf2_target = SoftQNetwork(obs_size, action_size).to(dtype)
+        self.actor = Actor(obs_size, action_size, low, high, hidden).to(dtype)
+        self.qf1 = SoftQNetwork(obs_size, action_size, hidden).to(dtype)
+        self.qf2 = SoftQNetwork(obs_size, action_size, hidden).to(dtype)
+        self.qf1_target = SoftQNetwork(obs_size, action_size, hidden).to(dtype)
+        self.qf2_target = SoftQNetwork(obs_size, action_size, hidden).to(dtype)
         self.qf1_target.load_state_dict(self.qf1.state_dict())
         self.qf2_target.load_state_dict(self.qf2.state_dict())
         self.log_alpha = torch.zeros(1, requires_grad=True, dtype=dtype)
