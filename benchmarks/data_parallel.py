@@ -10,7 +10,7 @@ Environment steps/s count transitions (num_envs per iteration); updates/s count 
 gradient updates (updates_per_step per iteration, each on the whole batch).
 Prints one JSON line.
 
-    python benchmarks/data_parallel.py --num-envs 131072 --batch-size 65536 --hidden 256 256
+    python benchmarks/data_parallel.py              # 262,144 envs, batch 65,536, 4 updates/iteration
     XLA_FLAGS=--xla_force_host_platform_device_count=2 python benchmarks/data_parallel.py \\
         --num-envs 4 --batch-size 8 --hidden 8 --iterations 2 --repeats 2   # CPU smoke test
 """
@@ -72,7 +72,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--env", default="InvertedPendulum-v5")
-    parser.add_argument("--num-envs", type=int, default=131072)
+    parser.add_argument("--num-envs", type=int, default=262144)
     parser.add_argument("--batch-size", type=int, default=65536)
     parser.add_argument("--updates-per-step", type=int, default=4)
     parser.add_argument("--hidden", type=int, nargs="+", default=[256, 256],

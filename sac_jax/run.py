@@ -16,6 +16,7 @@ import jax
 import numpy as np
 
 from sac_jax.config import SACConfig
+from sac_jax.parallel import seeds_program
 from sac_jax.presets import SOLVED_RETURN
 from sac_jax.train import make_train_parts
 
@@ -43,10 +44,11 @@ def solved_at(eval_returns: np.ndarray, env_steps: np.ndarray, threshold: float)
 
 def run_training(config: SACConfig, seeds: int = 1, seed: int = 0,
                  on_point: Optional[Callable[[int, dict, float], None]] = None) -> RunResult:
-    """Trains `seeds` seeds (keys split from `seed`) vmapped in one program, driven from the host
-    one chunk at a time (`sac_jax.train.make_train_parts`): the compiled chunk holds no host
-    callback, so JAX's persistent compilation cache keeps it, and progress is read between
-    chunks.
+    """Trains `seeds` seeds (keys split from `seed`) vmapped in one program, split over the local
+    devices when there are several and they divide `seeds` (`sac_jax.parallel.seeds_program`),
+    driven from the host one chunk at a time (`sac_jax.train.make_train_parts`): the compiled
+    chunk holds no host callback, so JAX's persistent compilation cache keeps it, and progress
+    is read between chunks.
 
     `on_point(env_steps, mean_metrics, elapsed_s)` is called at every evaluation point with the
     metrics averaged over seeds. The summary holds compile and run seconds, final evaluation
@@ -55,8 +57,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0,
     """
     threshold = SOLVED_RETURN.get(config.env)
     parts = make_train_parts(config)
-    init = jax.jit(jax.vmap(parts.init))
-    chunk = jax.jit(jax.vmap(parts.chunk), donate_argnums=0)
+    init = seeds_program(parts.init, seeds)
+    chunk = seeds_program(parts.chunk, seeds, donate=True)
     keys = jax.random.split(jax.random.key(seed), seeds)
     t0 = time.perf_counter()
     runner = init(keys)
