@@ -9,9 +9,11 @@ environments, keeps its own replay buffer of buffer_size/D transitions, and draw
 of each minibatch from it. Every update averages its gradients and losses over the axis
 (`config.data_parallel_axis`, see `sac_jax.updates`), so a global update on D shares of B/D
 equals the update on the whole batch of B, and the learner state stays identical on all
-devices. The learner state is initialised from the run's key on every device; device 0 also uses
-the run's key for its environments, buffer sampling and noise, device d > 0 uses
-`fold_in(key, d)`, so on a one-device mesh the run is exactly `make_train(config)`'s.
+devices. Every branch that holds an update depends only on iteration counts, which all devices
+share, so all of them reach each collective. The learner state is initialised from the run's
+key on every device; device 0 also uses the run's key for its environments, buffer sampling and
+noise, device d > 0 uses `fold_in(key, d)`, so on a one-device mesh the run is
+`make_train(config)`'s (up to float32 rounding: the compiled program differs).
 
 Meshes may span the devices of several processes (hosts): call `jax.distributed.initialize()`
 first, then build the mesh from `jax.devices()` (docs/parallel.md).

@@ -22,12 +22,16 @@ import sac_jax  # noqa: E402
 from sac_jax import parallel  # noqa: E402
 from sac_jax.compilation_cache import enable_compilation_cache  # noqa: E402
 
-UPDATE_CONFIGS = {  # Pendulum-v1 shapes (O = 3, A = 1), global batch of 32
+# Pendulum-v1 shapes (O = 3, A = 1), global batch of 32. v2 with CleanRL's policy delay of 2:
+# the compared update is the 4th, which runs the actor block (2 actor and temperature steps)
+# inside its `lax.cond`; v1 runs its actor step directly.
+UPDATE_CONFIGS = {
     "v2": sac_jax.SACConfig(env="Pendulum-v1", actor_hidden=(32, 32), critic_hidden=(32, 32),
-                            batch_size=32, learning_starts=32, eval_every=32, total_steps=64),
+                            batch_size=32, learning_starts=32, eval_every=32, total_steps=64,
+                            policy_frequency=2),
 }
 UPDATE_CONFIGS["v1"] = UPDATE_CONFIGS["v2"].replace(
-    variant="v1", learn_alpha=False, reward_scale=2.0, loss_coef=0.5,
+    variant="v1", learn_alpha=False, reward_scale=2.0, loss_coef=0.5, policy_frequency=1,
     update_order=("value", "actor", "critic"))
 # The pendulum preset on 2 environments with 2 updates per iteration (its 1 update per
 # environment step); on 2 devices, one environment and half of each batch per device.
