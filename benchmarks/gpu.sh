@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # GPU figures for BENCHMARKS.md, run on a lent H100/H200 through the device tool, where jax (CUDA)
 # and torch are installed but mujoco, mujoco-mjx, flax, optax and distrax travel as wheels in
-# .whl/ (see BENCHMARKS.md). Usage: bash benchmarks/gpu.sh env|updates|train
+# .whl/ (see BENCHMARKS.md). Usage: bash benchmarks/gpu.sh env|updates|train|parallel
+# (parallel: on a machine with several GPUs, one GPU against data parallel over all of them)
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
@@ -14,6 +15,9 @@ case "$1" in
       --skip-baselines ;;
   updates)
     python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 ;;
+  parallel)
+    python3 benchmarks/data_parallel.py
+    python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384 ;;
   train)
     for seeds in 1 256; do
       python3 scripts/train.py --seeds "$seeds" --cache-dir /tmp/jaxcache 2>&1 | tail -4

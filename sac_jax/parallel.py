@@ -35,6 +35,8 @@ SEEDS = "seeds"
 DATA = "data"
 SHARDED_FIELDS = ("num_envs", "buffer_size", "batch_size", "learning_starts", "eval_every")
 """Config sizes a data-parallel run divides among its devices."""
+PER_DEVICE_FIELDS = ("env", "buffer", "key", "sums", "outputs")
+"""`RunnerState` fields that each device of a data-parallel run holds for itself."""
 
 
 def make_mesh(axis: str, devices: Optional[Sequence[jax.Device]] = None) -> Mesh:
@@ -43,12 +45,19 @@ def make_mesh(axis: str, devices: Optional[Sequence[jax.Device]] = None) -> Mesh
     return Mesh(devices, (axis,))
 
 
+def _axis(mesh: Mesh) -> str:
+    """The name of the mesh's only axis."""
+    if len(mesh.axis_names) != 1:
+        raise ValueError(f"mesh axes {mesh.axis_names}: need a mesh with exactly one axis")
+    return mesh.axis_names[0]
+
+
 # ---------------------------------------------------------------------------- seeds
 def over_seeds(fn: Callable, mesh: Mesh, donate: bool = False) -> Callable:
     """`jax.jit(jax.vmap(fn))` with the leading (seeds) axis of every argument and result split
     over the mesh's axis: each device runs `jax.vmap(fn)` on its S/D seeds. S must be a
     multiple of the number of devices D. `donate` donates the (single) argument's buffers."""
-    (axis,) = mesh.axis_names
+    axis = _axis(mesh)
     # check_vma=False: seeds never communicate, so there is nothing for the varying-axes type
     # check to protect, and it rejects branches that mix per-seed values with constants.
     sharded = jax.shard_map(jax.vmap(fn), mesh=mesh, in_specs=P(axis), out_specs=P(axis),
@@ -85,16 +94,14 @@ def local_config(config: SACConfig, num_devices: int, axis: str = DATA) -> SACCo
 def _runner_specs(axis: str) -> RunnerState:
     """Learner state and iteration count are the same on all devices and stored once; the rest
     belongs to one device and carries a leading device axis, split over `axis`."""
-    per_device = P(axis)
-    return RunnerState(sac=P(), env=per_device, buffer=per_device, key=per_device, iteration=P(),
-                       sums=per_device, outputs=per_device)
+    return RunnerState(sac=P(), iteration=P(), **{name: P(axis) for name in PER_DEVICE_FIELDS})
 
 
 def _device_axis(runner: RunnerState, add: bool) -> RunnerState:
     """Adds (or removes) the leading device axis of size 1 on a device's own fields."""
     shape = (lambda x: x[None]) if add else (lambda x: x[0])
     own = {name: jax.tree_util.tree_map(shape, getattr(runner, name))
-           for name in ("env", "buffer", "key", "sums", "outputs")}
+           for name in PER_DEVICE_FIELDS}
     return runner.replace(**own)
 
 
@@ -104,7 +111,7 @@ def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     functions (jit them); the runner's `sac` and `iteration` are as in a one-device run, its
     `env`, `buffer`, `key`, `sums` and `outputs` have a leading device axis of size D
     (`data_parallel_metrics` turns the outputs into the run's metrics)."""
-    (axis,) = mesh.axis_names
+    axis = _axis(mesh)
     parts = make_train_parts(local_config(config, mesh.size, axis))
     specs = _runner_specs(axis)
 

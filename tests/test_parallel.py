@@ -9,6 +9,8 @@ import os
 import subprocess
 import sys
 
+import jax
+import numpy as np
 import pytest
 
 from sac_jax import PRESETS, parallel
@@ -108,3 +110,11 @@ def test_local_config_rejects_sizes_the_devices_do_not_divide():
         parallel.local_config(PRESETS["fast"].replace(batch_size=100), 8)
     with pytest.raises(ValueError, match="num_devices=0"):
         parallel.local_config(PRESETS["fast"], 0)
+
+
+def test_a_mesh_of_several_axes_is_rejected():
+    mesh = jax.sharding.Mesh(np.array(jax.devices()[:1]).reshape(1, 1), ("seeds", "data"))
+    with pytest.raises(ValueError, match=r"mesh axes \('seeds', 'data'\): .*exactly one axis"):
+        parallel.make_data_parallel_parts(PRESETS["fast"], mesh)
+    with pytest.raises(ValueError, match="exactly one axis"):
+        parallel.over_seeds(lambda key: key, mesh)
