@@ -5,6 +5,7 @@
 # orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
 # and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
 # Usage: bash benchmarks/gpu.sh env|updates|train
+#        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
 set -uo pipefail
@@ -24,6 +25,9 @@ case "$mode" in
     for seeds in 1 256; do
       python3 scripts/train.py --seeds "$seeds" --cache-dir /tmp/jaxcache 2>&1 | tail -4
     done ;;
+  parallel)
+    python3 benchmarks/data_parallel.py
+    python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384 ;;
   brax|brax-cpu)
     if ! out=$(python3 -c "import PIL, scipy, brax.training.agents.sac.train" 2>&1); then
       echo "$out" | tail -5; echo "brax does not import"; exit 1

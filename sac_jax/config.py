@@ -111,6 +111,12 @@ class SACConfig:
     """"exact": log|d a/d u| = log scale + 2(log 2 - u - softplus(-2u)); "epsilon":
     log(scale (1 - tanh(u)^2) + 1e-6) as the PyTorch seeds."""
 
+    # --- execution ---
+    data_parallel_axis: Optional[str] = None
+    """Mapped device axis over which every update averages its gradients and losses
+    (`jax.lax.pmean`), so parameters stay equal on all devices. Set by `sac_jax.parallel` on each
+    device's share of a data-parallel run; None for a run on one device."""
+
     def __post_init__(self):
         # Lists from a JSON file or a CLI become tuples, so the config stays hashable.
         for name in ("update_order", "actor_hidden", "critic_hidden"):
@@ -167,6 +173,9 @@ class SACConfig:
             value = getattr(self, field)
             if value is not None and not math.isfinite(value):
                 fail(field, "must be finite or None")
+        if self.data_parallel_axis is not None and (
+                not isinstance(self.data_parallel_axis, str) or not self.data_parallel_axis):
+            fail("data_parallel_axis", "must be a non-empty axis name or None")
         if self.last_layer_init is not None and self.last_layer_init <= 0:
             fail("last_layer_init", "must be > 0 or None")
         if self.batch_size > self.buffer_size:

@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sac_jax.config import SACConfig
+from sac_jax.parallel import seeds_program
 from sac_jax.presets import SOLVED_RETURN
 from sac_jax.train import RunnerState, make_train_parts
 
@@ -77,13 +78,15 @@ def first_non_finite(sac_state) -> Optional[str]:
 
 @functools.lru_cache(maxsize=4)
 def compiled_program(config: SACConfig, seeds: int):
-    """(parts, jitted vmapped init, compiled vmapped chunk) for `seeds` seeds of `config`. Kept
+    """(parts, jitted vmapped init, compiled vmapped chunk) for `seeds` seeds of `config`, the
+    seeds split over the local devices when there are several and they divide `seeds`
+    (`sac_jax.parallel.seeds_program`). Kept
     per (config, seeds), so later runs of the same shapes in this process neither trace nor
     compile again (other processes load the compiled chunk from the persistent cache)."""
     parts = make_train_parts(config)
-    init = jax.jit(jax.vmap(parts.init))
+    init = seeds_program(parts.init, seeds)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
-    chunk = jax.jit(jax.vmap(parts.chunk), donate_argnums=0)
+    chunk = seeds_program(parts.chunk, seeds, donate=True)
     return parts, init, chunk.lower(jax.eval_shape(init, keys)).compile()
 
 
@@ -92,8 +95,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
                  on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
                  should_stop: Optional[Callable[[], bool]] = None) -> RunResult:
-    """Trains `seeds` seeds (keys split from `seed`), vmapped in one program driven one chunk at
-    a time.
+    """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split over the
+    local devices when they divide `seeds`) driven one chunk at a time.
 
     resume: `(state, position)` read from a checkpoint; the run continues from there.
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
@@ -112,7 +115,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "walls": {}}
     else:
         runner, position = resume
-        runner = jax.device_put(runner)
+        runner = jax.device_put(runner, chunk.input_shardings[0][0])
         position = dict(position, walls=dict(position["walls"]))
     position["compile_s"] += time.perf_counter() - t0
     start = time.perf_counter() - position["run_s"]

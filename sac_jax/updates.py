@@ -3,6 +3,13 @@
 Randomness is either a PRNG key or explicit standard-normal noise eps (float array of the shape
 the update needs, (B, A)), so tests can replay a reference implementation's noise.
 Every update takes one Adam step on its own parameters and leaves the rest of the state as is.
+
+Data parallel (`config.data_parallel_axis` set, inside a mapping over that device axis, see
+`sac_jax.parallel`): each device holds an equal share B/D of the batch, and each update replaces
+its gradient and losses by their mean over the D devices (`jax.lax.pmean`) before the Adam step.
+Every objective is a mean over the batch, so with equal shares
+grad J(batch) = (1/D) sum_d grad J(share d): the step is the one the whole batch would give, and
+parameters and optimiser states stay identical on all devices.
 """
 
 from __future__ import annotations
@@ -28,6 +35,12 @@ def as_noise(key_or_noise: jax.Array, shape: Tuple[int, ...]) -> jax.Array:
             raise ValueError(f"noise has shape {key_or_noise.shape}, expected {shape}")
         return key_or_noise
     return jax.random.normal(key_or_noise, shape)
+
+
+def _mean_over_devices(agent: Agent, tree):
+    """`tree` averaged over the data-parallel device axis; unchanged on one device."""
+    axis = agent.config.data_parallel_axis
+    return tree if axis is None else jax.lax.pmean(tree, axis)
 
 
 def _adam_step(optimizer: optax.GradientTransformation, params, grads, opt_state):
@@ -70,10 +83,11 @@ def update_critic(agent: Agent, state: SACState, batch: Transition,
     """One Adam step on J_Q for all N critics at once (see `critic_objective`)."""
     (loss, q), grads = jax.value_and_grad(
         critic_objective(agent, state, batch, key_or_noise), has_aux=True)(state.critic_params)
+    loss, q, grads = _mean_over_devices(agent, (loss, jnp.mean(q), grads))
     params, opt_state = _adam_step(agent.critic_optimizer, state.critic_params, grads,
                                    state.critic_opt_state)
     return (state.replace(critic_params=params, critic_opt_state=opt_state),
-            {"critic_loss": loss, "q": jnp.mean(q)})
+            {"critic_loss": loss, "q": q})
 
 
 def actor_objective(agent: Agent, state: SACState, obs: jax.Array,
@@ -93,13 +107,14 @@ def actor_objective(agent: Agent, state: SACState, obs: jax.Array,
 def update_actor(agent: Agent, state: SACState, obs: jax.Array,
                  key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
     """One Adam step on J_pi (see `actor_objective`). metrics["log_prob"] (B,) is log pi(a~|s)
-    before the step."""
+    before the step (this device's share of the batch)."""
     (loss, log_prob), grads = jax.value_and_grad(
         actor_objective(agent, state, obs, key_or_noise), has_aux=True)(state.actor_params)
+    loss, entropy, grads = _mean_over_devices(agent, (loss, -jnp.mean(log_prob), grads))
     params, opt_state = _adam_step(agent.actor_optimizer, state.actor_params, grads,
                                    state.actor_opt_state)
     return (state.replace(actor_params=params, actor_opt_state=opt_state),
-            {"actor_loss": loss, "entropy": -jnp.mean(log_prob), "log_prob": log_prob})
+            {"actor_loss": loss, "entropy": entropy, "log_prob": log_prob})
 
 
 def update_temperature(agent: Agent, state: SACState,
@@ -108,8 +123,8 @@ def update_temperature(agent: Agent, state: SACState,
     held constant; afterwards alpha = exp(log alpha)."""
     cfg = agent.config
     log_prob = jax.lax.stop_gradient(log_prob)
-    loss, grad = jax.value_and_grad(losses.temperature_loss)(
-        state.log_alpha, log_prob, agent.target_entropy, cfg.alpha_loss)
+    loss, grad = _mean_over_devices(agent, jax.value_and_grad(losses.temperature_loss)(
+        state.log_alpha, log_prob, agent.target_entropy, cfg.alpha_loss))
     log_alpha, opt_state = _adam_step(agent.alpha_optimizer, state.log_alpha, grad,
                                       state.alpha_opt_state)
     alpha = jnp.exp(log_alpha)
@@ -132,8 +147,8 @@ def value_objective(agent: Agent, state: SACState, obs: jax.Array,
 def update_value(agent: Agent, state: SACState, obs: jax.Array,
                  key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
     """One Adam step on J_V (see `value_objective`)."""
-    loss, grads = jax.value_and_grad(value_objective(agent, state, obs, key_or_noise))(
-        state.value_params)
+    loss, grads = _mean_over_devices(agent, jax.value_and_grad(
+        value_objective(agent, state, obs, key_or_noise))(state.value_params))
     params, opt_state = _adam_step(agent.value_optimizer, state.value_params, grads,
                                    state.value_opt_state)
     return state.replace(value_params=params, value_opt_state=opt_state), {"value_loss": loss}

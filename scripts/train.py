@@ -43,6 +43,8 @@ def _parse_field(hint: str):
         return (lambda s: tuple(int(x) for x in s.replace(",", " ").split())), "N,N,..."
     if hint.startswith("Tuple[str"):
         return (lambda s: tuple(x for x in s.replace(",", " ").split())), "NAME,NAME,..."
+    if hint == "Optional[str]":
+        return (lambda s: None if s.lower() == "none" else s), "NAME|none"
     if hint.startswith("Optional"):
         return (lambda s: None if s.lower() == "none" else float(s)), "FLOAT|none"
     if hint == "bool":

@@ -34,6 +34,8 @@ BAD_VALUES = [
     ("last_layer_init", -0.1, "> 0"),
     ("target_entropy", float("inf"), "finite"),
     ("update_order", ("actor", "value"), "must be one of"),
+    ("data_parallel_axis", "", "non-empty axis name"),
+    ("data_parallel_axis", 0, "non-empty axis name"),
 ]
 
 
