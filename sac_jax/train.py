@@ -86,13 +86,14 @@ class RunnerState(flax.struct.PyTreeNode):
 class TrainParts(NamedTuple):
     """`init(key, draws=None) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations`
     iterations (evaluating where an evaluation period ends); `num_chunks` chunks make the run;
-    `record_draws(key) -> Draws`, the stream of the run from `init(key)` (see `record_draws`)."""
+    `record_draws(key) -> Draws`, the stream of the run from `init(key)` (see `record_draws`;
+    None for the data-parallel parts of `sac_jax.parallel`, which take no recorded stream)."""
 
     init: Callable[..., RunnerState]
     chunk: Callable[[RunnerState], RunnerState]
     chunk_iterations: int
     num_chunks: int
-    record_draws: Callable[[jax.Array], Draws]
+    record_draws: Optional[Callable[[jax.Array], Draws]] = None
 
 
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:
