@@ -37,14 +37,18 @@ from scripts._cli import Parser  # noqa: E402
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
 
+def _flag_fields():
+    """The SACConfig fields that are flags: all but `data_parallel_axis`, which
+    `sac_jax.parallel` sets on each device's share of a data-parallel run."""
+    return [f for f in dataclasses.fields(sac_jax.SACConfig) if f.name != "data_parallel_axis"]
+
+
 def _parse_field(hint: str):
     """argparse (type, metavar) for a SACConfig field annotation (a string)."""
     if hint.startswith("Tuple[int"):
         return (lambda s: tuple(int(x) for x in s.replace(",", " ").split())), "N,N,..."
     if hint.startswith("Tuple[str"):
         return (lambda s: tuple(x for x in s.replace(",", " ").split())), "NAME,NAME,..."
-    if hint == "Optional[str]":
-        return (lambda s: None if s.lower() == "none" else s), "NAME|none"
     if hint.startswith("Optional"):
         return (lambda s: None if s.lower() == "none" else float(s)), "FLOAT|none"
     if hint == "bool":
@@ -75,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="compilation cache directory (default ~/.cache/sac-jax/jax)")
     group = parser.add_argument_group("SACConfig fields (each overrides the preset)")
     docs = field_docs()
-    for field in dataclasses.fields(sac_jax.SACConfig):
+    for field in _flag_fields():
         kind, metavar = _parse_field(str(field.type))
         group.add_argument("--" + field.name.replace("_", "-"), dest=field.name, type=kind,
                            metavar=metavar, default=None, help=docs.get(field.name, ""))
@@ -99,7 +103,7 @@ def _new_run(args):
     """(config, run info, run directory) of a fresh run; the directory is created last, once
     every input is known to be good. ValueError on bad input."""
     preset = args.preset or DEFAULT_PRESET
-    overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(sac_jax.SACConfig)
+    overrides = {f.name: getattr(args, f.name) for f in _flag_fields()
                  if getattr(args, f.name) is not None}
     config = PRESETS[preset].replace(**overrides)
     info = {"preset": preset, "seeds": 1 if args.seeds is None else args.seeds,
