@@ -21,16 +21,12 @@ check. Both precisions check the schedule exactly: the numbers of updates and of
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 
 import pytest
 
+from tests.subprocess_json import run_json
 from tests.equivalence_loop import CONFIGS, MUTATIONS, measure
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _check_schedule(name, e):
@@ -44,12 +40,7 @@ def _check_schedule(name, e):
 
 @pytest.fixture(scope="module")
 def float64_errors():
-    env = dict(os.environ, JAX_ENABLE_X64="1")
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [ROOT, env.get("PYTHONPATH")]))
-    proc = subprocess.run([sys.executable, "-m", "tests.equivalence_loop"], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return run_json(["-m", "tests.equivalence_loop"], JAX_ENABLE_X64="1")
 
 
 @pytest.mark.parametrize("name", list(CONFIGS))

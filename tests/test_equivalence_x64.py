@@ -5,26 +5,17 @@ x64 does not reach this process."""
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 
 import pytest
 
+from tests.subprocess_json import run_json
 from tests.equivalence_harness import FAMILIES
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 @pytest.fixture(scope="module")
 def errors():
-    env = dict(os.environ, JAX_ENABLE_X64="1")
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [ROOT, env.get("PYTHONPATH")]))
-    proc = subprocess.run([sys.executable, "-m", "tests.equivalence_x64"], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return run_json(["-m", "tests.equivalence_x64"], JAX_ENABLE_X64="1")
 
 
 @pytest.mark.parametrize("family", list(FAMILIES))

@@ -4,14 +4,13 @@ a data-parallel update equals the single-device update on the same global batch 
 fails to without the averaging; seeds sharded over devices equal the unsharded vmap; a
 one-device mesh reproduces `make_train`; a data-parallel run learns Pendulum-v1."""
 
-import json
 import os
-import subprocess
-import sys
 
 import jax
 import numpy as np
 import pytest
+
+from tests.subprocess_json import run_json
 
 from sac_jax import PRESETS, parallel
 
@@ -20,12 +19,7 @@ SCRIPT = os.path.join(ROOT, "tests", "parallel_checks.py")
 
 
 def run_checks(*names) -> dict:
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2",
-               PYTHONPATH=os.pathsep.join(filter(None, [ROOT, os.environ.get("PYTHONPATH")])))
-    proc = subprocess.run([sys.executable, SCRIPT, *names], env=env, capture_output=True,
-                          text=True, timeout=1200)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return run_json([SCRIPT, *names], XLA_FLAGS="--xla_force_host_platform_device_count=2")
 
 
 @pytest.fixture(scope="module")

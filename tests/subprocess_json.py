@@ -1,0 +1,20 @@
+"""Runs a measuring script in a fresh Python process (for settings that must precede JAX's
+import: x64, forced host devices) and returns the JSON object of its last output line."""
+
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run_json(args, **env_vars) -> dict:
+    """`python ARGS...` from the repository root with `env_vars` added to the environment; fails
+    the calling test with the script's stderr if it exits non-zero."""
+    env = dict(os.environ, **env_vars)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [ROOT, env.get("PYTHONPATH")]))
+    proc = subprocess.run([sys.executable, *args], cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
