@@ -21,12 +21,10 @@ check. Both precisions check the schedule exactly: the numbers of updates and of
 
 from __future__ import annotations
 
-
 import pytest
 
-from tests.subprocess_json import run_json
 from tests.equivalence_loop import CONFIGS, MUTATIONS, measure
-
+from tests.subprocess_json import run_json
 
 
 def _check_schedule(name, e):
