@@ -5,12 +5,10 @@ x64 does not reach this process."""
 
 from __future__ import annotations
 
-
 import pytest
 
-from tests.subprocess_json import run_json
 from tests.equivalence_harness import FAMILIES
-
+from tests.subprocess_json import run_json
 
 
 @pytest.fixture(scope="module")
