@@ -139,7 +139,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         reached = new_points > points
         if reached:
             points = new_points
-            point = jax.device_get({k: v[:, points - 1] for k, v in runner.outputs.items()})
+            # indexed on the host: a device-side index would compile an op per new point
+            point = {k: v[:, points - 1] for k, v in jax.device_get(runner.outputs).items()}
             step = int(point["env_steps"][0])
             position["walls"][str(step)] = position["run_s"]
             if on_point is not None:
