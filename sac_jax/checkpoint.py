@@ -32,9 +32,8 @@ def _is_key(leaf) -> bool:
 
 def save(path: str, tree: Any, meta: dict) -> None:
     """Writes `tree` and `meta` to `path` atomically (temporary file in the same directory, then
-    `os.replace`): `path` always holds either the previous checkpoint or this one, whenever the
-    process is stopped (no fsync: a power cut may lose the latest checkpoint, not corrupt it on
-    journaling filesystems)."""
+    `os.replace`): however the process is stopped, `path` holds either the previous checkpoint or
+    this one. (No fsync: this guards against stopped processes, not against power loss.)"""
     leaves = jax.device_get([jax.random.key_data(x) if _is_key(x) else x
                              for x in jax.tree_util.tree_leaves(tree)])
     payload = {"format": FORMAT, "meta": meta,
