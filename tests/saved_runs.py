@@ -1,4 +1,5 @@
-"""Run directories for the tests of load_policy and the evaluate and render scripts."""
+"""Run directories for the tests of load_policy and the evaluate and render scripts, and their
+one-line-error check."""
 
 from __future__ import annotations
 
@@ -28,3 +29,14 @@ def untrained(out: str, env: str, seeds: int = 1, **overrides) -> str:
     run_dir.save_checkpoint(out, runner, {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0,
                                           "walls": {}})
     return out
+
+
+def fails_in_one_line(capsys, main, argv, code, message):
+    """`main(argv)` exits with `code` and exactly one line on stderr holding `message`."""
+    try:
+        result = main(argv)
+    except SystemExit as exit_info:  # argparse
+        result = exit_info.code
+    err = capsys.readouterr().err
+    assert result == code, err
+    assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err

@@ -17,7 +17,7 @@ import sac_jax
 from sac_jax import run_dir
 from sac_jax.train import agent_for
 from scripts import evaluate as evaluate_script
-from tests.saved_runs import trained_pendulum
+from tests.saved_runs import fails_in_one_line, trained_pendulum
 
 PAIRED_TOLERANCE = 0.1
 """|ours - Gymnasium| per Pendulum-v1 episode from the same initial state (returns ~ -1e3):
@@ -64,14 +64,7 @@ def test_gymnasium_with_its_own_initial_states_and_the_text_output(run, capsys):
 
 
 def _fails(capsys, argv, code, message):
-    """main(argv) exits with `code` and one line on stderr holding `message`."""
-    try:
-        result = evaluate_script.main(argv)
-    except SystemExit as exit_info:  # argparse
-        result = exit_info.code
-    err = capsys.readouterr().err
-    assert result == code, err
-    assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err
+    fails_in_one_line(capsys, evaluate_script.main, argv, code, message)
 
 
 def _bad_copy(run, tmp_path, checkpoint_bytes):

@@ -18,7 +18,7 @@ import pytest
 import envs
 from sac_jax import run_dir
 from scripts import render as render_script
-from tests.saved_runs import untrained
+from tests.saved_runs import fails_in_one_line, untrained
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -121,14 +121,7 @@ def test_a_gl_backend_mujoco_cannot_load_is_one_line(runs, tmp_path):
 
 
 def _fails(capsys, argv, code, message):
-    """main(argv) exits with `code` and one line on stderr holding `message`."""
-    try:
-        result = render_script.main(argv)
-    except SystemExit as exit_info:  # argparse
-        result = exit_info.code
-    err = capsys.readouterr().err
-    assert result == code, err
-    assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err
+    fails_in_one_line(capsys, render_script.main, argv, code, message)
 
 
 @pytest.mark.parametrize("case, message", [
