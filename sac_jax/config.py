@@ -10,14 +10,20 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from typing import Optional, Tuple
+import typing
+from typing import Annotated, Literal, Optional, Tuple
 
-VARIANTS = ("v2", "v1")
-INITS = ("flax", "torch", "xavier")
-LOG_STD_MODES = ("clip", "tanh")
-LOG_PROB_CORRECTIONS = ("exact", "epsilon")
-ALPHA_LOSSES = ("alpha", "log_alpha")
-ALPHA_LOG_PROBS = ("resample", "reuse")
+import tyro
+
+Variant = Literal["v2", "v1"]
+Init = Literal["flax", "torch", "xavier"]
+LogStdMode = Literal["clip", "tanh"]
+LogProbCorrection = Literal["exact", "epsilon"]
+AlphaLoss = Literal["alpha", "log_alpha"]
+AlphaLogProb = Literal["resample", "reuse"]
+VARIANTS, INITS, LOG_STD_MODES, LOG_PROB_CORRECTIONS, ALPHA_LOSSES, ALPHA_LOG_PROBS = (
+    typing.get_args(t) for t in (Variant, Init, LogStdMode, LogProbCorrection, AlphaLoss,
+                                 AlphaLogProb))
 UPDATE_ORDERS = {  # any order of the variant's updates
     "v2": set(itertools.permutations(("critic", "actor"))),
     "v1": set(itertools.permutations(("value", "actor", "critic"))),
@@ -35,7 +41,7 @@ class SACConfig:
     # --- task and loop ---
     env: str = "InvertedPendulum-v5"
     """Environment name, one of `envs.registered()`."""
-    variant: str = "v2"
+    variant: Variant = "v2"
     """"v2": critic targets and temperature (Haarnoja et al. 2018b). "v1": value network V and
     its Polyak target V-bar, no critic targets (Haarnoja et al. 2018a)."""
     num_envs: int = 1
@@ -47,6 +53,7 @@ class SACConfig:
     buffer_size: int = 1_000_000
     """Replay capacity in transitions."""
     batch_size: int = 256
+    """Transitions per minibatch of each gradient update."""
     updates_per_step: int = 1
     """Gradient updates (calls of `sac_update`) per iteration of `num_envs` environment steps."""
     eval_every: int = 5_000
@@ -56,6 +63,7 @@ class SACConfig:
 
     # --- objective ---
     gamma: float = 0.99
+    """Discount factor of the soft Q target."""
     tau: float = 0.005
     """Polyak coefficient: target <- tau * online + (1 - tau) * target."""
     target_update_period: int = 1
@@ -73,46 +81,55 @@ class SACConfig:
 
     # --- temperature ---
     learn_alpha: bool = True
+    """Learn the temperature alpha by J_alpha; if false, alpha stays at alpha_init."""
     alpha_init: float = 1.0
     """alpha used by the losses until the first temperature step."""
     log_alpha_init: Optional[float] = None
     """Initial log alpha for the temperature optimiser; None means log(alpha_init)."""
     target_entropy: Optional[float] = None
     """Target entropy H-bar of J_alpha; None means -|A|."""
-    alpha_loss: str = "alpha"
+    alpha_loss: AlphaLoss = "alpha"
     """J_alpha form: "alpha" = mean(-exp(log a)(log pi + H)); "log_alpha" = mean(-log a (log pi + H))."""
-    alpha_log_prob: str = "resample"
+    alpha_log_prob: AlphaLogProb = "resample"
     """log pi fed to J_alpha: "resample" draws a fresh action from the updated actor (CleanRL);
     "reuse" takes the actor step's log pi (before its update)."""
 
     # --- optimisers (Adam with PyTorch's defaults) ---
     actor_lr: float = 3e-4
+    """Adam learning rate of the actor (J_pi)."""
     critic_lr: float = 1e-3
+    """Adam learning rate of the critics (J_Q)."""
     alpha_lr: float = 1e-3
+    """Adam learning rate of log alpha (J_alpha)."""
     value_lr: float = 3e-4
+    """Adam learning rate of the value network (J_V, SAC v1)."""
 
     # --- networks ---
     actor_hidden: Tuple[int, ...] = (256, 256)
+    """Hidden widths of the actor (its trunk, or each of its two MLPs)."""
     critic_hidden: Tuple[int, ...] = (256, 256)
     """Hidden widths of each critic and of the value network."""
     num_critics: int = 2
-    init: str = "flax"
+    """Critics N in the ensemble; targets and J_pi take the minimum over them."""
+    init: Init = "flax"
     """"flax": lecun-normal kernels, zero bias; "torch": PyTorch's nn.Linear default
     U(+-1/sqrt(fan_in)) for kernel and bias; "xavier": Xavier-uniform kernels, zero bias."""
     last_layer_init: Optional[float] = None
     """If set, output layers (Q, V, mean, log std) are drawn U(+-last_layer_init)."""
     separate_log_std_network: bool = False
     """Actor with separate mean and log-std MLPs (seed 001) instead of two heads on one trunk."""
-    log_std_mode: str = "tanh"
+    log_std_mode: LogStdMode = "tanh"
     """"clip": clip to [log_std_min, log_std_max]; "tanh": min + (max - min)(tanh(x) + 1) / 2."""
     log_std_min: float = -5.0
+    """Lower bound of the actor's log standard deviation."""
     log_std_max: float = 2.0
-    log_prob_correction: str = "epsilon"
+    """Upper bound of the actor's log standard deviation."""
+    log_prob_correction: LogProbCorrection = "epsilon"
     """"exact": log|d a/d u| = log scale + 2(log 2 - u - softplus(-2u)); "epsilon":
     log(scale (1 - tanh(u)^2) + 1e-6) as the PyTorch seeds."""
 
     # --- execution ---
-    data_parallel_axis: Optional[str] = None
+    data_parallel_axis: Annotated[Optional[str], tyro.conf.Suppress] = None
     """Mapped device axis over which every update averages its gradients and losses
     (`jax.lax.pmean`), so parameters stay equal on all devices. Set by `sac_jax.parallel` on each
     device's share of a data-parallel run; None for a run on one device."""
@@ -221,17 +238,3 @@ class SACConfig:
             raise ValueError(f"SACConfig has no field(s) {sorted(unknown)}")
         return dataclasses.replace(self, **changes)
 
-
-def field_docs() -> dict:
-    """{field name: its docstring} for `SACConfig`, read from this module's source."""
-    import ast
-    import inspect
-
-    tree = ast.parse(inspect.getsource(SACConfig))
-    body = tree.body[0].body
-    docs = {}
-    for node, after in zip(body, body[1:] + [None]):
-        if (isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr)
-                and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
-            docs[node.target.id] = " ".join(after.value.value.split())
-    return docs

@@ -22,12 +22,14 @@ missing dependency with one line and exit 1. Nothing is written.
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 import os
 import sys
+from typing import Literal
 
 import numpy as np
+import tyro
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -38,7 +40,7 @@ import sac_jax  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
 from sac_jax.evaluation import initial_states  # noqa: E402
-from scripts._cli import MissingDependency, Parser, positive_int  # noqa: E402
+from scripts._cli import MissingDependency, fail, parse, positive  # noqa: E402
 
 GYMNASIUM_IDS = {name: name for name in (
     "InvertedPendulum-v5", "InvertedPendulum-v4", "InvertedDoublePendulum-v5", "Pendulum-v1")}
@@ -47,23 +49,30 @@ GYMNASIUM_IDS = {name: name for name in (
 GYMNASIUM_MISSING = 'Gymnasium is not installed: pip install "gymnasium[mujoco]"'
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = Parser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("run", metavar="RUN_DIR", help="run directory written by train.py")
-    parser.add_argument("--episodes", type=positive_int, default=10,
-                        help="episodes in each environment (default 10)")
-    parser.add_argument("--seed", type=int, default=0,
-                        help="which of the run's seeds to evaluate, 0..seeds-1 (default 0)")
-    parser.add_argument("--episode-seed", type=int, default=0,
-                        help="PRNG seed of the episodes' initial states (default 0)")
-    parser.add_argument("--which", choices=("ours", "gymnasium", "both"), default="both",
-                        help="environments to evaluate in (default both)")
-    parser.add_argument("--paired", action="store_true",
-                        help="start Gymnasium's episodes from ours' initial states (needs "
-                             "--which both)")
-    parser.add_argument("--json", action="store_true",
-                        help="print one JSON object (returns of every episode) instead of text")
-    return parser
+@dataclasses.dataclass(frozen=True)
+class EvaluateArgs:
+    """Evaluate a saved policy in our JAX environment and in Gymnasium's."""
+
+    run: tyro.conf.Positional[str]
+    """Run directory written by scripts/train.py."""
+    episodes: int = 10
+    """Episodes in each environment."""
+    seed: int = 0
+    """Which of the run's seeds to evaluate, 0..seeds-1."""
+    episode_seed: int = 0
+    """PRNG seed of the episodes' initial states."""
+    which: Literal["ours", "gymnasium", "both"] = "both"
+    """Environments to evaluate in."""
+    paired: bool = False
+    """Start Gymnasium's episodes from ours' initial states (needs --which both)."""
+    json: bool = False
+    """Print one JSON object (returns of every episode) instead of text."""
+
+    def __post_init__(self):
+        positive("episodes", self.episodes)
+        if self.paired and self.which != "both":
+            raise ValueError(f"--paired compares ours with Gymnasium: needs --which both, "
+                             f"not {self.which}")
 
 
 def our_returns(policy: sac_jax.SavedPolicy, env, episodes: int, key: jax.Array) -> np.ndarray:
@@ -127,28 +136,19 @@ def _summary(returns: np.ndarray) -> dict:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    use_ours, use_gym = args.which in ("ours", "both"), args.which in ("gymnasium", "both")
     try:
-        if args.paired and args.which != "both":
-            raise ValueError(f"--paired compares ours with Gymnasium: needs --which both, "
-                             f"not {args.which}")
+        args = parse(EvaluateArgs, argv, description=__doc__)
+        use_ours, use_gym = args.which in ("ours", "both"), args.which in ("gymnasium", "both")
         config, _ = run_dir.read_config(args.run)
         gym_id = _gymnasium_id(config.env) if use_gym else None
-    except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-    sac_jax.enable_compilation_cache()
-    try:
+        sac_jax.enable_compilation_cache()
         policy = sac_jax.load_policy(args.run, args.seed)
-    except ValueError as error:  # also RunDirError and CheckpointError
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+    except ValueError as error:  # also UsageError, RunDirError and CheckpointError
+        return fail(error, 2)
     try:  # before anything is compiled
         gym_env = _make_gymnasium(gym_id) if use_gym else None
     except MissingDependency as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+        return fail(error, 1)
 
     results = {"run": args.run, "env": config.env, "seed": args.seed,
                "episode_seed": args.episode_seed, "episodes": args.episodes}

@@ -22,12 +22,13 @@ line and exit 1.
 
 from __future__ import annotations
 
-import argparse
 import ctypes.util
+import dataclasses
 import importlib
 import os
 import sys
 import warnings
+from typing import Optional
 
 GL_HELP = ("set MUJOCO_GL=egl (system package libegl1) or MUJOCO_GL=osmesa (libosmesa6) for "
            "headless rendering")
@@ -62,34 +63,45 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+import tyro  # noqa: E402
 
 import envs  # noqa: E402
 import sac_jax  # noqa: E402
 from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
-from scripts._cli import MissingDependency, Parser, positive_int  # noqa: E402
+from scripts._cli import MissingDependency, fail, parse, positive  # noqa: E402
 
 FORMATS = (".gif", ".mp4")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = Parser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("run", metavar="RUN_DIR", help="run directory written by train.py")
-    parser.add_argument("--out", default=None,
-                        help="output file, .gif or .mp4 (default RUN_DIR/episode.gif)")
-    parser.add_argument("--force", action="store_true", help="replace an existing --out file")
-    parser.add_argument("--steps", type=positive_int, default=None,
-                        help="most environment steps to draw (default: a whole episode)")
-    parser.add_argument("--fps", type=positive_int, default=None,
-                        help="frames per second (default 1 / dt of the environment: real time)")
-    parser.add_argument("--width", type=positive_int, default=480, help="pixels (default 480)")
-    parser.add_argument("--height", type=positive_int, default=320, help="pixels (default 320)")
-    parser.add_argument("--seed", type=int, default=0,
-                        help="which of the run's seeds to render, 0..seeds-1 (default 0)")
-    parser.add_argument("--episode-seed", type=int, default=0,
-                        help="PRNG seed of the episode's initial state (default 0)")
-    return parser
+@dataclasses.dataclass(frozen=True)
+class RenderArgs:
+    """Render an episode of a saved policy to a GIF or MP4."""
+
+    run: tyro.conf.Positional[str]
+    """Run directory written by scripts/train.py."""
+    out: Optional[str] = None
+    """Output file, .gif or .mp4 (default RUN/episode.gif)."""
+    force: bool = False
+    """Replace an existing --out file."""
+    steps: Optional[int] = None
+    """Most environment steps to draw (default: a whole episode)."""
+    fps: Optional[int] = None
+    """Frames per second (default 1 / dt of the environment: real time)."""
+    width: int = 480
+    """Image width in pixels."""
+    height: int = 320
+    """Image height in pixels."""
+    seed: int = 0
+    """Which of the run's seeds to render, 0..seeds-1."""
+    episode_seed: int = 0
+    """PRNG seed of the episode's initial state."""
+
+    def __post_init__(self):
+        for name in ("steps", "fps", "width", "height"):
+            if getattr(self, name) is not None:
+                positive(name, getattr(self, name))
 
 
 def rollout(policy: sac_jax.SavedPolicy, env, key: jax.Array, steps: int):
@@ -258,19 +270,17 @@ def _check_output(out: str, force: bool) -> None:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
     try:
+        args = parse(RenderArgs, argv, description=__doc__)
         run_dir.read_config(args.run)
         out = args.out or os.path.join(args.run, "episode.gif")
         _check_output(out, args.force)
         sac_jax.enable_compilation_cache()
         policy = sac_jax.load_policy(args.run, args.seed)
-    except ValueError as error:  # also RunDirError and CheckpointError
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+    except ValueError as error:  # also UsageError, RunDirError and CheckpointError
+        return fail(error, 2)
     except MissingDependency as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+        return fail(error, 1)
     env = envs.make(policy.config.env)
     steps = args.steps or env.max_episode_steps
     fps = args.fps or max(1, round(1.0 / env.dt))
@@ -279,8 +289,7 @@ def main(argv=None) -> int:
         renderer = (mujoco_renderer(env, args.width, args.height) if isinstance(env, MjxEnv)
                     else None)
     except MissingDependency as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+        return fail(error, 1)
     poses, total, length = rollout(policy, env, jax.random.key(args.episode_seed), steps)
     if renderer is None:
         frames = pendulum_frames(poses, args.width, args.height, env.dt)

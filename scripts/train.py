@@ -17,73 +17,79 @@ checkpoint. Bad input ends with one line on stderr and exit 2, before anything i
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
 import os
 import signal
 import sys
 import time
+from typing import Annotated, Literal, Optional, Sequence
+
+import tyro
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import sac_jax  # noqa: E402
-from sac_jax.config import field_docs  # noqa: E402
+from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, RunResult, run_training  # noqa: E402
-from scripts._cli import Parser  # noqa: E402
+from scripts._cli import fail, parse  # noqa: E402
 
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir")
+"""The flags a resumed run accepts; it keeps its own configuration."""
 
 
-def _flag_fields():
-    """The SACConfig fields that are flags: all but `data_parallel_axis`, which
-    `sac_jax.parallel` sets on each device's share of a data-parallel run."""
-    return [f for f in dataclasses.fields(sac_jax.SACConfig) if f.name != "data_parallel_axis"]
+@dataclasses.dataclass(frozen=True)
+class TrainArgs:
+    """Train SAC: one compiled program for the whole run, all seeds vmapped in it."""
+
+    preset: PresetName = DEFAULT_PRESET
+    """Base configuration; each SACConfig flag below overrides one of its fields (the defaults
+    shown are this preset's)."""
+    seeds: int = 1
+    """Seeds trained at once in one vmapped program (split over the local devices when their
+    number divides it)."""
+    seed: int = 0
+    """PRNG seed of the run; each seed's key is split from it."""
+    out: Optional[str] = None
+    """Run directory to create (must not exist); default runs/<preset>-<env>-<time>."""
+    resume: Optional[str] = None
+    """Continue the run saved in this directory from its checkpoint, with its own configuration
+    (no other run or config flags)."""
+    cache: bool = True
+    """JAX's persistent compilation cache: a second run of the same configuration starts
+    without compiling."""
+    cache_dir: Optional[str] = None
+    """Compilation cache directory (default $JAX_COMPILATION_CACHE_DIR or ~/.cache/sac-jax/jax)."""
+    config: Annotated[SACConfig, tyro.conf.OmitArgPrefixes] = PRESETS[DEFAULT_PRESET]
+
+    def __post_init__(self):
+        if self.seeds < 1:
+            raise ValueError(f"--seeds={self.seeds}: must be at least 1")
 
 
-def _parse_field(hint: str):
-    """argparse (type, metavar) for a SACConfig field annotation (a string)."""
-    if hint.startswith("Tuple[int"):
-        return (lambda s: tuple(int(x) for x in s.replace(",", " ").split())), "N,N,..."
-    if hint.startswith("Tuple[str"):
-        return (lambda s: tuple(x for x in s.replace(",", " ").split())), "NAME,NAME,..."
-    if hint.startswith("Optional"):
-        return (lambda s: None if s.lower() == "none" else float(s)), "FLOAT|none"
-    if hint == "bool":
-        def boolean(s):
-            if s.lower() not in ("true", "false"):
-                raise argparse.ArgumentTypeError(f"expected true or false, got {s!r}")
-            return s.lower() == "true"
-        return boolean, "true|false"
-    return {"int": int, "float": float, "str": str}[hint], hint.upper()
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = Parser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--preset", default=None, choices=sorted(PRESETS),
-                        help=f"base configuration (default {DEFAULT_PRESET})")
-    parser.add_argument("--seeds", type=int, default=None,
-                        help="seeds trained at once in one vmapped program (default 1)")
-    parser.add_argument("--seed", type=int, default=None, help="PRNG seed of the first run (0)")
-    parser.add_argument("--out", default=None,
-                        help="run directory to create (must not exist; default "
-                             "runs/<preset>-<env>-<time>)")
-    parser.add_argument("--resume", default=None, metavar="RUN_DIR",
-                        help="continue the run saved in RUN_DIR from its checkpoint (its own "
-                             "configuration; no other run or config flags)")
-    parser.add_argument("--no-cache", action="store_true",
-                        help="turn JAX's persistent compilation cache off")
-    parser.add_argument("--cache-dir", default=None,
-                        help="compilation cache directory (default ~/.cache/sac-jax/jax)")
-    group = parser.add_argument_group("SACConfig fields (each overrides the preset)")
-    docs = field_docs()
-    for field in _flag_fields():
-        kind, metavar = _parse_field(str(field.type))
-        group.add_argument("--" + field.name.replace("_", "-"), dest=field.name, type=kind,
-                           metavar=metavar, default=None, help=docs.get(field.name, ""))
-    return parser
+def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
+    """The command line as `TrainArgs`, the SACConfig defaults taken from `--preset` (an unknown
+    preset is reported by the parse). UsageError (one line) for bad input."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    preset = DEFAULT_PRESET
+    for i, token in enumerate(argv):
+        name, _, value = token.partition("=")
+        if name == "--preset":
+            value = value or (argv[i + 1] if i + 1 < len(argv) else "")
+            preset = value if value in PRESETS else DEFAULT_PRESET
+    args = parse(TrainArgs, argv, default=TrainArgs(preset=preset, config=PRESETS[preset]),
+                 description=__doc__)
+    if args.resume is not None:
+        given = [t.partition("=")[0] for t in argv if t.startswith("--")]
+        other = [flag for flag in given if flag not in RESUME_FLAGS]
+        if other:
+            raise ValueError(f"--resume={args.resume}: a resumed run keeps its own "
+                             f"configuration; remove {other[0]}")
+    return args
 
 
 def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
@@ -99,31 +105,18 @@ def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
             f"{step * seeds / max(elapsed, 1e-9):8.0f} steps/s | {elapsed:6.1f} s")
 
 
-def _new_run(args):
+def _new_run(args: TrainArgs):
     """(config, run info, run directory) of a fresh run; the directory is created last, once
     every input is known to be good. ValueError on bad input."""
-    preset = args.preset or DEFAULT_PRESET
-    overrides = {f.name: getattr(args, f.name) for f in _flag_fields()
-                 if getattr(args, f.name) is not None}
-    config = PRESETS[preset].replace(**overrides)
-    info = {"preset": preset, "seeds": 1 if args.seeds is None else args.seeds,
-            "seed": args.seed or 0}
-    if info["seeds"] < 1:
-        raise ValueError(f"--seeds={info['seeds']}: must be at least 1")
+    info = {"preset": args.preset, "seeds": args.seeds, "seed": args.seed}
     out = args.out or os.path.join(
-        "runs", f"{preset}-{config.env}-{time.strftime('%Y%m%d-%H%M%S')}")
-    run_dir.create(out, config, **info)
-    return config, info, out
+        "runs", f"{args.preset}-{args.config.env}-{time.strftime('%Y%m%d-%H%M%S')}")
+    run_dir.create(out, args.config, **info)
+    return args.config, info, out
 
 
-def _resumed_run(args):
+def _resumed_run(args: TrainArgs):
     """(config, run info, run directory, (state, position)) of the run in `--resume`."""
-    given = [a for a, v in vars(args).items()
-             if v is not None and a not in ("resume", "no_cache", "cache_dir")]
-    if given:
-        flag = "--" + given[0].replace("_", "-")
-        raise ValueError(f"--resume={args.resume}: a resumed run keeps its own configuration; "
-                         f"remove {flag}")
     config, info, state, position = run_dir.load_checkpoint(args.resume)
     from sac_jax.train import make_train_parts
     if position["chunks_done"] >= make_train_parts(config).num_chunks:
@@ -169,16 +162,15 @@ def _write_results(out: str, config, info: dict, result: RunResult) -> None:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
     try:
+        args = parse_args(argv)
         if args.resume:
             config, info, out, resume = _resumed_run(args)
         else:
             (config, info, out), resume = _new_run(args), None
-    except ValueError as error:  # also RunDirError and CheckpointError
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-    if not args.no_cache:
+    except ValueError as error:  # also UsageError, RunDirError and CheckpointError
+        return fail(error, 2)
+    if args.cache:
         sac_jax.enable_compilation_cache(args.cache_dir)
     seeds = info["seeds"]
     print(f"{'resuming' if resume else 'preset'} {info['preset']} on {config.env}: {seeds} "

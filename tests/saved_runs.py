@@ -33,10 +33,7 @@ def untrained(out: str, env: str, seeds: int = 1, **overrides) -> str:
 
 def fails_in_one_line(capsys, main, argv, code, message):
     """`main(argv)` exits with `code` and exactly one line on stderr holding `message`."""
-    try:
-        result = main(argv)
-    except SystemExit as exit_info:  # argparse
-        result = exit_info.code
+    result = main(argv)
     err = capsys.readouterr().err
     assert result == code, err
     assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err

@@ -97,7 +97,7 @@ def test_bad_seed(run, capsys):
 
 @pytest.mark.parametrize("value", ["0", "-2", "many"])
 def test_bad_episodes(run, capsys, value):
-    _fails(capsys, [run, "--episodes", value], 2, "argument --episodes")
+    _fails(capsys, [run, "--episodes", value], 2, "--episodes")
 
 
 def test_paired_needs_both(run, capsys):

@@ -157,7 +157,7 @@ def test_bad_input_writes_nothing(runs, tmp_path, capsys, case, message):
 
 @pytest.mark.parametrize("flag", ["--steps", "--fps", "--width", "--height"])
 def test_non_positive_values(runs, capsys, flag):
-    _fails(capsys, [runs["pendulum"], flag, "0"], 2, f"argument {flag}")
+    _fails(capsys, [runs["pendulum"], flag, "0"], 2, f"{flag}=0: must be a positive integer")
 
 
 def test_mp4_without_a_video_encoder(runs, tmp_path, capsys, monkeypatch):

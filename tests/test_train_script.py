@@ -4,7 +4,7 @@ ends exactly where an uninterrupted run does; a non-finite state stops the run a
 last good checkpoint; the progress line."""
 
 import csv
-import importlib.util
+import dataclasses
 import json
 import math
 import os
@@ -14,10 +14,9 @@ import signal
 import numpy as np
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-spec = importlib.util.spec_from_file_location("train_script", os.path.join(ROOT, "scripts", "train.py"))
-train_script = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(train_script)
+import sac_jax
+
+from scripts import train as train_script
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -40,16 +39,18 @@ def test_an_existing_run_directory_is_not_touched(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--preset", "nope"], "error: argument --preset: invalid choice: 'nope'"),
-    (["--learn-alpha", "maybe"], "error: argument --learn-alpha: expected true or false"),
-    (["--num-envs", "two"], "error: argument --num-envs: invalid int value: 'two'"),
+    (["--preset", "nope"], "error: --preset='nope': must be one of ['cleanrl', 'v1', 'pendulum', 'fast']"),
+    (["--variant", "v3"], "error: --variant='v3': must be one of ['v2', 'v1']"),
+    (["--num-envs", "two"], "error: --num-envs: invalid literal for int() with base 10: 'two'"),
+    (["--tau"], "error: --tau: expected a value"),
+    (["--taux", "1"], "error: unrecognized arguments: --taux 1"),
+    (["--resume", "runs/x", "--tau", "0.1"], "error: --resume=runs/x: a resumed run keeps its "
+                                             "own configuration; remove --tau"),
 ])
 def test_unknown_preset_and_malformed_values_end_with_one_line(argv, message, capsys):
-    with pytest.raises(SystemExit) as exit_info:
-        train_script.main(argv)
-    assert exit_info.value.code == 2
+    assert train_script.main(argv) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(message) and "\n" not in err
+    assert err.startswith(message) and "\n" not in err, err
 
 
 def test_resume_errors_name_the_problem_and_touch_nothing(tmp_path, capsys):
@@ -61,11 +62,22 @@ def test_resume_errors_name_the_problem_and_touch_nothing(tmp_path, capsys):
     assert os.listdir(tmp_path) == ["junk.txt"]
 
 
-def test_every_config_field_is_a_documented_flag():
-    help_text = train_script.build_parser().format_help()
-    for flag in ("--num-envs", "--updates-per-step", "--log-prob-correction", "--update-order"):
-        assert flag in help_text
-    assert "Polyak coefficient" in help_text
+def test_every_config_field_is_a_documented_flag_with_the_presets_defaults(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        train_script.main(["--preset", "cleanrl", "--help"])
+    assert exit_info.value.code == 0
+    help_text = " ".join(capsys.readouterr().out.split())
+    for field in dataclasses.fields(sac_jax.SACConfig):
+        flag = "--" + field.name.replace("_", "-")
+        assert (flag in help_text) == (field.name != "data_parallel_axis"), flag
+    assert "Polyak coefficient" in help_text and "(default: InvertedPendulum-v4)" in help_text
+
+
+def test_flags_override_the_chosen_preset():
+    args = train_script.parse_args(["--preset", "pendulum", "--tau", "0.01", "--actor-hidden",
+                                    "32", "32", "--no-learn-alpha", "--alpha-init", "0.2"])
+    assert args.config == sac_jax.PRESETS["pendulum"].replace(
+        tau=0.01, actor_hidden=(32, 32), learn_alpha=False, alpha_init=0.2)
 
 
 def test_progress_line_shows_undefined_values_as_a_dash():
@@ -78,7 +90,7 @@ def test_progress_line_shows_undefined_values_as_a_dash():
 # ---------------------------------------------------------------- runs (Pendulum-v1, tiny)
 RUN = ["--preset", "pendulum", "--total-steps", "4000", "--eval-every", "1000",
        "--learning-starts", "1000", "--buffer-size", "4000", "--eval-episodes", "2",
-       "--actor-hidden", "32,32", "--critic-hidden", "32,32", "--seed", "3"]
+       "--actor-hidden", "32", "32", "--critic-hidden", "32", "32", "--seed", "3"]
 TIMING = ("wall_s", "steps_per_s")
 
 
