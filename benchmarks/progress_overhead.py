@@ -1,12 +1,20 @@
 """Cost of following a run from the host: progress lines, TensorBoard, checkpoints, finiteness
 checks.
 
-In one process, the same configuration and seeds run (a) as the pure `make_train` program, one
-`lax.scan` with nothing reported until it ends, and (b) through `sac_jax.run.run_training`
-driven chunk by chunk, printing nothing but writing TensorBoard scalars at every evaluation
-point and a checkpoint (the whole state, replay buffers included) after it, as
-`scripts/train.py` does. Compile time is excluded from both; the figure is the median of
-`--repeats` runs of each, interleaved.
+In one process, the same configuration and seeds run three ways, interleaved, `--repeats`
+times each (compile time excluded from all):
+    single scan   the pure `make_train` program: one `lax.scan`, nothing reported until it ends
+    chunks        `sac_jax.run.run_training` driven chunk by chunk with nothing attached
+    followed      the same, writing TensorBoard scalars at every evaluation point and a
+                  checkpoint (the whole state, replay buffers included) after it, as
+                  `scripts/train.py` does (which also prints one line per point)
+Each figure is the median over the repeats; the overheads are medians of the ratios of runs
+made back to back (the machine's speed drifts between repeats). `followed_host_pct` is the
+direct measure: the share of the followed run's time that the host spends between chunks
+(finiteness check, progress, TensorBoard, checkpoint) while the device waits for the next
+chunk (`summary["host_s"]` of `run_training`). On a CPU the figures of whole runs scatter by
+about 10% run to run, and the single scan and the chunked runs take different numerical paths
+(float rounding of two programs), so their evaluations can last different numbers of steps.
 
     python benchmarks/progress_overhead.py                  # the default preset, 1 seed
     python benchmarks/progress_overhead.py --preset pendulum --seeds 4 --repeats 5
@@ -25,6 +33,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import jax  # noqa: E402
+import numpy as np  # noqa: E402
 
 import sac_jax  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
@@ -35,19 +44,25 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default=sac_jax.DEFAULT_PRESET, choices=sorted(sac_jax.PRESETS))
     parser.add_argument("--seeds", type=int, default=1)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     sac_jax.enable_compilation_cache()
     config = sac_jax.PRESETS[args.preset]
     keys = jax.random.split(jax.random.key(0), args.seeds)
     whole = jax.jit(jax.vmap(sac_jax.make_train(config))).lower(keys).compile()
     jax.block_until_ready(whole(keys))  # warm-up
-    plain, followed = [], []
+    run_training(config, seeds=args.seeds)  # compiles and warms up the chunk
+    times = {"single_scan": [], "chunks": [], "followed": []}
+    returns, host = {}, []
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.repeats):
             start = time.perf_counter()
-            jax.block_until_ready(whole(keys))
-            plain.append(time.perf_counter() - start)
+            _, metrics = jax.block_until_ready(whole(keys))
+            times["single_scan"].append(time.perf_counter() - start)
+            returns["single_scan"] = np.asarray(metrics["eval_return"])
+            result = run_training(config, seeds=args.seeds)
+            times["chunks"].append(result.summary["run_s"])
+            returns["chunks"] = result.metrics["eval_return"]
             out = os.path.join(tmp, f"run{r}")
             run_dir.create(out, config, args.preset, args.seeds, 0)
             tensorboard = run_dir.TensorBoard(out)
@@ -56,13 +71,25 @@ def main():
                 on_point=lambda step, means, returns, _: tensorboard.add_point(step, means, returns),
                 on_checkpoint=lambda state, position: run_dir.save_checkpoint(out, state, position))
             tensorboard.close()
-            followed.append(result.summary["run_s"])
-    p, f = statistics.median(plain), statistics.median(followed)
+            times["followed"].append(result.summary["run_s"])
+            host.append(result.summary["host_s"] / result.summary["run_s"])
+            returns["followed"] = result.metrics["eval_return"]
+            print(json.dumps({k: round(v[-1], 3) for k, v in times.items()}), file=sys.stderr)
+
+    def overhead(of, over):
+        return round(100 * (statistics.median(a / b for a, b in zip(times[of], times[over])) - 1), 2)
+
     print(json.dumps({"preset": args.preset, "seeds": args.seeds, "repeats": args.repeats,
-                      "single_scan_s": round(p, 3), "host_driven_s": round(f, 3),
-                      "overhead_pct": round(100 * (f / p - 1), 2),
-                      "single_scan_all_s": [round(x, 3) for x in plain],
-                      "host_driven_all_s": [round(x, 3) for x in followed],
+                      **{f"{k}_s": round(statistics.median(v), 3) for k, v in times.items()},
+                      "followed_host_pct": round(100 * statistics.median(host), 2),
+                      "overhead_pct_followed_vs_single_scan": overhead("followed", "single_scan"),
+                      "overhead_pct_followed_vs_chunks": overhead("followed", "chunks"),
+                      "overhead_pct_chunks_vs_single_scan": overhead("chunks", "single_scan"),
+                      **{f"{k}_all_s": [round(x, 3) for x in v] for k, v in times.items()},
+                      "followed_equals_chunks": bool(np.array_equal(returns["followed"],
+                                                                    returns["chunks"])),
+                      **{f"{k}_eval_returns": np.round(v.mean(axis=0), 1).tolist()
+                         for k, v in returns.items()},
                       "device": str(jax.devices()[0])}))
 
 

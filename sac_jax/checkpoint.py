@@ -13,13 +13,13 @@ before anything is built from it.
 from __future__ import annotations
 
 import os
-from typing import Any, Tuple
+from typing import Any, Callable, Tuple, Union
 
 import jax
 import numpy as np
 from flax import serialization
 
-FORMAT = 1
+FORMAT = 2
 
 
 class CheckpointError(ValueError):
@@ -48,10 +48,10 @@ def save(path: str, tree: Any, meta: dict) -> None:
             os.remove(tmp)
 
 
-def load(path: str, template: Any) -> Tuple[Any, dict]:
+def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, dict]:
     """Reads the checkpoint at `path` into the structure of `template` (a pytree of arrays or
-    `jax.ShapeDtypeStruct`s); returns (tree, meta). Raises `CheckpointError` naming the path and
-    the problem."""
+    `jax.ShapeDtypeStruct`s, or a function of the stored `meta` returning one); returns
+    (tree, meta). Raises `CheckpointError` naming the path and the problem."""
     if not os.path.isfile(path):
         raise CheckpointError(f"checkpoint {path}: not found")
     try:
@@ -65,6 +65,11 @@ def load(path: str, template: Any) -> Tuple[Any, dict]:
         raise
     except Exception as error:  # msgpack raises several types on damaged input
         raise CheckpointError(f"checkpoint {path}: unreadable ({type(error).__name__})") from None
+    if callable(template):
+        try:
+            template = template(meta)
+        except (KeyError, TypeError, ValueError) as error:
+            raise CheckpointError(f"checkpoint {path}: unexpected metadata ({error!r})") from None
     expected, treedef = jax.tree_util.tree_flatten(template)
     if len(stored) != len(expected):
         raise CheckpointError(f"checkpoint {path}: holds {len(stored)} arrays, this "

@@ -54,27 +54,34 @@ def _axis(mesh: Mesh) -> str:
 
 
 # ---------------------------------------------------------------------------- seeds
-def over_seeds(fn: Callable, mesh: Mesh, donate: bool = False) -> Callable:
-    """`jax.jit(jax.vmap(fn))` with the leading (seeds) axis of every argument and result split
-    over the mesh's axis: each device runs `jax.vmap(fn)` on its S/D seeds. S must be a
-    multiple of the number of devices D. `donate` donates the (single) argument's buffers.
+def over_seeds(fn: Callable, mesh: Mesh, in_axes=0, out_axes=0, donate: bool = False
+               ) -> Callable:
+    """`jax.jit(jax.vmap(fn, in_axes, out_axes))` with every mapped (seeds) axis of the arguments
+    and results split over the mesh's axis, and unmapped (None) parts, such as the counters of
+    `sac_jax.train.SEED_AXES`, held whole on every device: each device runs `jax.vmap(fn)` on
+    its S/D seeds. S must be a multiple of the number of devices D. `donate` donates the
+    (single) argument's buffers.
 
     The split is stated as `NamedSharding`s of the inputs and outputs and left to XLA's
     partitioner (seeds never communicate, so it inserts no collective). `jax.shard_map` would
     say the same thing, but XLA's GPU compiler of jax 0.11.2 crashes on the shard_mapped
     training program (BENCHMARKS.md), while this form compiles and runs on 2 GPUs."""
-    seeds = NamedSharding(mesh, P(_axis(mesh)))
-    return jax.jit(jax.vmap(fn), in_shardings=seeds, out_shardings=seeds,
-                   donate_argnums=(0,) if donate else ())
+    split, whole = NamedSharding(mesh, P(_axis(mesh))), NamedSharding(mesh, P())
+    shardings = lambda axes: jax.tree_util.tree_map(
+        lambda axis: whole if axis is None else split, axes, is_leaf=lambda axis: axis is None)
+    return jax.jit(jax.vmap(fn, in_axes, out_axes), in_shardings=shardings(in_axes),
+                   out_shardings=shardings(out_axes), donate_argnums=(0,) if donate else ())
 
 
-def seeds_program(fn: Callable, seeds: int, donate: bool = False) -> Callable:
+def seeds_program(fn: Callable, seeds: int, in_axes=0, out_axes=0, donate: bool = False
+                  ) -> Callable:
     """`over_seeds` on all local devices when there are several and they divide `seeds`;
-    otherwise the plain `jax.jit(jax.vmap(fn))` (the same program as before on one device)."""
+    otherwise the plain `jax.jit(jax.vmap(fn, in_axes, out_axes))` (the same program as before
+    on one device)."""
     devices = jax.local_devices()
     if len(devices) > 1 and seeds % len(devices) == 0:
-        return over_seeds(fn, make_mesh(SEEDS, devices), donate)
-    return jax.jit(jax.vmap(fn), donate_argnums=(0,) if donate else ())
+        return over_seeds(fn, make_mesh(SEEDS, devices), in_axes, out_axes, donate)
+    return jax.jit(jax.vmap(fn, in_axes, out_axes), donate_argnums=(0,) if donate else ())
 
 
 # ---------------------------------------------------------------------------- data parallel

@@ -1,7 +1,7 @@
 """Running a configuration from the host: compile once, train all seeds in one program, follow
 progress, check that the state stays finite, stop cleanly on request, and resume.
 
-The compiled unit is `jax.vmap(chunk)` from `sac_jax.train.make_train_parts`: a scan over a
+The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`) from `sac_jax.train.make_train_parts`: a scan over a
 fixed number of iterations that evaluates where an evaluation period ends. The host calls it
 repeatedly (donating the state, so the replay buffers are updated in place), and between calls
 reads the evaluation points, checks for non-finite parameters and polls `should_stop`. The
@@ -24,7 +24,7 @@ import numpy as np
 from sac_jax.config import SACConfig
 from sac_jax.parallel import seeds_program
 from sac_jax.presets import SOLVED_RETURN
-from sac_jax.train import RunnerState, make_train_parts
+from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 
 FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
 
@@ -84,9 +84,9 @@ def compiled_program(config: SACConfig, seeds: int):
     per (config, seeds), so later runs of the same shapes in this process neither trace nor
     compile again (other processes load the compiled chunk from the persistent cache)."""
     parts = make_train_parts(config)
-    init = seeds_program(parts.init, seeds)
+    init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
-    chunk = seeds_program(parts.chunk, seeds, donate=True)
+    chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
     return parts, init, chunk.lower(jax.eval_shape(init, keys)).compile()
 
 
@@ -112,17 +112,19 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     parts, init, chunk = compiled_program(config, seeds)
     if resume is None:
         runner = init(jax.random.split(jax.random.key(seed), seeds))
-        position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "walls": {}}
+        position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
+                    "walls": {}}
     else:
         runner, position = resume
         runner = jax.device_put(runner, chunk.input_shardings[0][0])
-        position = dict(position, walls=dict(position["walls"]))
+        position = dict(position, walls=dict(position["walls"]),
+                        host_s=position.get("host_s", 0.0))
     position["compile_s"] += time.perf_counter() - t0
     start = time.perf_counter() - position["run_s"]
     status, message = FINISHED, ""
 
     def points_done(state) -> int:
-        iterations = int(state.iteration[0])  # waits for the chunk
+        iterations = int(state.iteration)  # waits for the chunk
         return max(0, (iterations - config.prefill_iterations) // config.iterations_per_eval)
 
     points = points_done(runner)
@@ -130,10 +132,11 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         runner = chunk(runner)
         position["chunks_done"] += 1
         new_points = points_done(runner)
-        position["run_s"] = time.perf_counter() - start
+        host_start = time.perf_counter()  # the device waits from here to the next chunk
+        position["run_s"] = host_start - start
         bad = first_non_finite(runner.sac)
         if bad is not None:
-            steps = int(runner.iteration[0]) * config.num_envs
+            steps = int(runner.iteration) * config.num_envs
             status, message = NON_FINITE, f"non-finite {bad} at environment step {steps}"
             break
         reached = new_points > points
@@ -149,11 +152,13 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         stop = should_stop is not None and should_stop()
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
             on_checkpoint(runner, position)
+        position["host_s"] += time.perf_counter() - host_start
         if stop and position["chunks_done"] < parts.num_chunks:
-            steps = int(runner.iteration[0]) * config.num_envs
+            steps = int(runner.iteration) * config.num_envs
             status, message = INTERRUPTED, f"stopped at environment step {steps}"
             break
 
+    position["run_s"] = time.perf_counter() - start
     metrics = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
     walls = np.full(config.num_evals, np.nan)
     for p, step in enumerate(metrics["env_steps"][0, :points]):
@@ -178,6 +183,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                           if solved_mean is not None else None),
         "compile_s": round(position["compile_s"], 3),
         "run_s": round(position["run_s"], 3),
+        "host_s": round(position["host_s"], 3),
         "wall_s": round(position["compile_s"] + position["run_s"], 3),
     }
     return RunResult(runner, metrics, points, status, message, position, summary)

@@ -29,7 +29,7 @@ import numpy as np
 
 from sac_jax import checkpoint
 from sac_jax.config import SACConfig
-from sac_jax.train import RunnerState, make_train_parts
+from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 
 CHECKPOINT = "checkpoint.msgpack"
 
@@ -83,22 +83,46 @@ def read_config(run_dir: str) -> Tuple[SACConfig, dict]:
 
 def state_template(config: SACConfig, seeds: int) -> RunnerState:
     """Shapes and dtypes of the vmapped training state of `seeds` seeds (nothing is computed)."""
-    init = jax.vmap(make_train_parts(config).init)
+    init = jax.vmap(make_train_parts(config).init, out_axes=SEED_AXES)
     return jax.eval_shape(init, jax.random.split(jax.random.key(0), seeds))
 
 
+def _buffer_filled_to(runner: RunnerState, filled: int) -> RunnerState:
+    """`runner` with each seed's replay arrays (seeds, C, ...) cut to their first `filled` slots
+    (arrays or shapes)."""
+    cut = lambda x: (jax.ShapeDtypeStruct((x.shape[0], filled) + x.shape[2:], x.dtype)
+                     if isinstance(x, jax.ShapeDtypeStruct) else x[:, :filled])
+    data = jax.tree_util.tree_map(cut, runner.buffer.data)
+    return runner.replace(buffer=runner.buffer.replace(data=data))
+
+
 def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
-    """Saves the training state and the host loop's `position` (chunks done, clocks)."""
-    checkpoint.save(os.path.join(run_dir, CHECKPOINT), runner, position)
+    """Saves the training state and the host loop's `position` (chunks done, clocks). A ring
+    buffer fills its slots in order from slot 0 and the rest stay zero, so only the filled
+    slots [0, size) of the replay buffers are stored (the seeds train in lock-step: one size)."""
+    filled = int(np.max(jax.device_get(runner.buffer.size)))
+    checkpoint.save(os.path.join(run_dir, CHECKPOINT), _buffer_filled_to(runner, filled),
+                    {"position": position, "buffer_filled": filled})
 
 
 def load_checkpoint(run_dir: str) -> Tuple[SACConfig, dict, RunnerState, dict]:
     """(config, run info, training state, position) of a run directory's checkpoint;
     `RunDirError` (or its subclass `checkpoint.CheckpointError`) says what is wrong."""
     config, info = read_config(run_dir)
-    runner, position = checkpoint.load(os.path.join(run_dir, CHECKPOINT),
-                                       state_template(config, info["seeds"]))
-    return config, info, runner, position
+    template = state_template(config, info["seeds"])
+    capacity = config.buffer_size
+
+    def stored(meta):
+        filled = meta["buffer_filled"]
+        if isinstance(filled, bool) or not isinstance(filled, int) or not 0 <= filled <= capacity:
+            raise ValueError(f"buffer_filled={filled!r} outside [0, {capacity}]")
+        return _buffer_filled_to(template, filled)
+
+    runner, meta = checkpoint.load(os.path.join(run_dir, CHECKPOINT), stored)
+    pad = lambda x: np.concatenate(
+        [x, np.zeros((x.shape[0], capacity - x.shape[1]) + x.shape[2:], x.dtype)], axis=1)
+    data = jax.tree_util.tree_map(pad, runner.buffer.data)
+    return config, info, runner.replace(buffer=runner.buffer.replace(data=data)), meta["position"]
 
 
 def write_metrics(run_dir: str, metrics: Dict[str, np.ndarray], points: int) -> None:

@@ -29,6 +29,7 @@ stream).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Callable, Dict, NamedTuple, Optional, Tuple
 
@@ -94,6 +95,19 @@ class TrainParts(NamedTuple):
     chunk_iterations: int
     num_chunks: int
     record_draws: Optional[Callable[[jax.Array], Draws]] = None
+
+
+def _shared_counter_axes() -> RunnerState:
+    every = lambda cls: cls(**{f.name: 0 for f in dataclasses.fields(cls)})
+    return every(RunnerState).replace(sac=every(SACState).replace(step=None), iteration=None)
+
+
+SEED_AXES = _shared_counter_axes()
+"""`jax.vmap` axes of the `RunnerState` of many seeds trained in lock-step: a leading seed axis
+on every array but the two counters all seeds share, the iteration count and the update count
+`SACState.step`. They stay scalars, so the predicates of the loop's `lax.cond`s (prefill or
+learning, evaluation, policy delay, target period) stay unbatched: under `vmap` a batched
+predicate turns a `cond` into computing both branches and selecting."""
 
 
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:

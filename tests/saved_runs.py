@@ -6,7 +6,7 @@ from __future__ import annotations
 import jax
 
 from sac_jax import PRESETS, run_dir
-from sac_jax.train import make_train_parts
+from sac_jax.train import SEED_AXES, make_train_parts
 from scripts import train as train_script
 
 TINY_PENDULUM = ["--preset", "pendulum", "--total-steps", "3000", "--eval-every", "1000",
@@ -24,7 +24,7 @@ def untrained(out: str, env: str, seeds: int = 1, **overrides) -> str:
     `env` (preset `fast` with `overrides`): only the initialisation is compiled."""
     config = PRESETS["fast"].replace(env=env, **overrides)
     run_dir.create(out, config, preset="fast", seeds=seeds, seed=0)
-    init = jax.jit(jax.vmap(make_train_parts(config).init))
+    init = jax.jit(jax.vmap(make_train_parts(config).init, out_axes=SEED_AXES))
     runner = init(jax.random.split(jax.random.key(0), seeds))
     run_dir.save_checkpoint(out, runner, {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0,
                                           "walls": {}})

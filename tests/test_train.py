@@ -54,16 +54,21 @@ def test_same_key_gives_identical_results(train, first):
 
 def test_vmap_over_seeds_equals_separate_runs(train, first):
     """Two seeds in one vmapped program reproduce two separate runs. float32: vmap batches the
-    matmuls, whose rounding differs and grows over the 768 updates (Adam magnifies it on
-    near-zero gradients): measured at most 1.2e-4 relative on the metrics and 1.6% of the
-    largest actor-parameter magnitude on the parameters. Bounds: rtol 1e-3 on metrics, 5% on
-    parameters; the two seeds' parameters differ by more than 30% of it."""
+    matmuls, whose rounding differs, and the training loop is chaotic: the difference grows
+    over the 768 updates (Adam magnifies it on near-zero gradients). Measured on the metrics:
+    1.5e-4 relative at the first evaluation (256 updates; the evaluation return, a 200-step
+    rollout), 1.2e-4 at the second, 2.2e-3 at the third; on the parameters at the end, 1.6% of
+    the largest actor-parameter magnitude. Bounds: rtol 1e-3 at the first evaluation, 2e-2 at
+    every one, 5% on the parameters; the two seeds' parameters differ by more than 30% of it,
+    and their critic losses by more than 2e-2."""
     batched = jax.device_get(jax.jit(jax.vmap(sac_jax.make_train(CONFIG)))(KEYS))
     second = jax.device_get(train(KEYS[1]))
     for seed, single in enumerate((first, second)):
         runner, metrics = single
         for name in metrics:
-            np.testing.assert_allclose(batched[1][name][seed], metrics[name], rtol=1e-3,
+            np.testing.assert_allclose(batched[1][name][seed][0], metrics[name][0], rtol=1e-3,
+                                       atol=1e-6, err_msg=name)
+            np.testing.assert_allclose(batched[1][name][seed], metrics[name], rtol=2e-2,
                                        atol=1e-5, err_msg=name)
         diff, scale = _max_diff_and_scale(
             jax.tree_util.tree_map(lambda b: b[seed], batched[0].sac.actor_params),
@@ -71,6 +76,7 @@ def test_vmap_over_seeds_equals_separate_runs(train, first):
         assert diff <= 0.05 * scale, (diff, scale)
     diff, scale = _max_diff_and_scale(first[0].sac.actor_params, second[0].sac.actor_params)
     assert diff > 0.3 * scale, (diff, scale)
+    assert not np.allclose(first[1]["critic_loss"], second[1]["critic_loss"], rtol=2e-2)
 
 
 def _max_diff_and_scale(a, b):

@@ -1,0 +1,68 @@
+"""sac_jax.run_dir checkpoints: the whole state comes back bit for bit, only the filled replay
+slots are stored, and a checkpoint whose metadata does not fit is refused."""
+
+import os
+
+import jax
+import numpy as np
+import pytest
+from flax import serialization
+
+from sac_jax import checkpoint, run_dir
+from tests.saved_runs import untrained
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A Pendulum-v1 run directory of 2 seeds whose state has 40 of 4000 replay slots filled."""
+    out = untrained(str(tmp_path_factory.mktemp("ckpt") / "run"), "Pendulum-v1", seeds=2,
+                    buffer_size=4000, total_steps=6000, learning_starts=2000, eval_every=2000,
+                    num_envs=8)
+    _, _, runner, position = run_dir.load_checkpoint(out)
+    rng = np.random.default_rng(0)
+    data = jax.tree_util.tree_map(lambda x: np.concatenate(
+        [rng.normal(size=(x.shape[0], 40) + x.shape[2:]).astype(x.dtype), x[:, 40:]], axis=1),
+        runner.buffer.data)
+    runner = runner.replace(buffer=runner.buffer.replace(data=data, size=np.full(2, 40, np.int32)))
+    run_dir.save_checkpoint(out, runner, dict(position, chunks_done=3))
+    return out, runner
+
+
+def _leaves(tree):
+    return [np.asarray(jax.random.key_data(x)) if jax.dtypes.issubdtype(x.dtype, jax.dtypes.prng_key)
+            else np.asarray(x) for x in jax.tree_util.tree_leaves(tree)]
+
+
+def test_the_state_comes_back_bit_for_bit(run):
+    out, saved = run
+    _, _, loaded, position = run_dir.load_checkpoint(out)
+    assert position["chunks_done"] == 3
+    for a, b in zip(_leaves(saved), _leaves(loaded), strict=True):
+        assert a.dtype == b.dtype and a.shape == b.shape
+        np.testing.assert_array_equal(a, b)
+
+
+def test_only_the_filled_replay_slots_are_stored(run):
+    out, saved = run
+    with open(os.path.join(out, run_dir.CHECKPOINT), "rb") as f:
+        payload = serialization.msgpack_restore(f.read())
+    assert payload["meta"]["buffer_filled"] == 40
+    obs = np.asarray(saved.buffer.data.obs)
+    assert obs.shape == (2, 4000, 3)
+    shapes = [np.asarray(x).shape for x in payload["leaves"].values()]
+    assert (2, 40, 3) in shapes and (2, 4000, 3) not in shapes
+
+
+@pytest.mark.parametrize("filled", [4001, -1, "40", None])
+def test_a_fill_level_that_does_not_fit_is_refused(run, tmp_path, filled):
+    out, _ = run
+    with open(os.path.join(out, run_dir.CHECKPOINT), "rb") as f:
+        payload = serialization.msgpack_restore(f.read())
+    payload["meta"]["buffer_filled"] = filled
+    copy = tmp_path / "copy"
+    os.makedirs(copy)
+    for name in ("config.json", "run.json"):
+        (copy / name).write_bytes(open(os.path.join(out, name), "rb").read())
+    (copy / run_dir.CHECKPOINT).write_bytes(serialization.msgpack_serialize(payload))
+    with pytest.raises(checkpoint.CheckpointError, match="unexpected metadata|array"):
+        run_dir.load_checkpoint(str(copy))
