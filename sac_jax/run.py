@@ -12,6 +12,7 @@ state ends exactly where the uninterrupted run does.
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import functools
 import time
@@ -22,7 +23,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from sac_jax.config import SACConfig
+from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import seeds_program
+from sac_jax.program_cache import cached_compile
 from sac_jax.presets import SOLVED_RETURN
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 
@@ -78,16 +81,32 @@ def first_non_finite(sac_state) -> Optional[str]:
 
 @functools.lru_cache(maxsize=4)
 def compiled_program(config: SACConfig, seeds: int):
-    """(parts, jitted vmapped init, compiled vmapped chunk) for `seeds` seeds of `config`, the
-    seeds split over the local devices when there are several and they divide `seeds`
-    (`sac_jax.parallel.seeds_program`). Kept
-    per (config, seeds), so later runs of the same shapes in this process neither trace nor
-    compile again (other processes load the compiled chunk from the persistent cache)."""
+    """(parts, compiled vmapped init, compiled vmapped chunk, the state's sharding) for `seeds`
+    seeds of `config`, the seeds split over the local devices when there are several and they
+    divide `seeds` (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later runs
+    of the same shapes in this process neither trace nor compile again; other processes find
+    the compiled programs in the persistent compilation cache and, on one device, the traced
+    chunk in `sac_jax.program_cache`."""
     parts = make_train_parts(config)
-    init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
-    chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
-    return parts, init, chunk.lower(jax.eval_shape(init, keys)).compile()
+    options = compiler_options()
+    init = seeds_program(parts.init, seeds, out_axes=SEED_AXES).lower(keys)
+    state = init.out_info
+    directory = program_directory()
+    # XLA compiles without Python's lock: init compiles while the chunk is traced
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        init = pool.submit(init.compile, compiler_options=options)
+        if directory is None or len(jax.local_devices()) > 1:
+            chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
+            chunk = chunk.lower(state).compile(compiler_options=options)
+            sharding = chunk.input_shardings[0][0]
+        else:
+            chunk = cached_compile(
+                jax.vmap(parts.chunk, in_axes=(SEED_AXES,), out_axes=SEED_AXES),
+                f"chunk {config!r}", [state], state, directory, donate_first=True,
+                compiler_options=options)
+            sharding = jax.local_devices()[0]
+        return parts, init.result(), chunk, sharding
 
 
 def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
@@ -109,14 +128,14 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     """
     threshold = SOLVED_RETURN.get(config.env)
     t0 = time.perf_counter()
-    parts, init, chunk = compiled_program(config, seeds)
+    parts, init, chunk, sharding = compiled_program(config, seeds)
     if resume is None:
         runner = init(jax.random.split(jax.random.key(seed), seeds))
         position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
                     "walls": {}}
     else:
         runner, position = resume
-        runner = jax.device_put(runner, chunk.input_shardings[0][0])
+        runner = jax.device_put(runner, sharding)
         position = dict(position, walls=dict(position["walls"]),
                         host_s=position.get("host_s", 0.0))
     position["compile_s"] += time.perf_counter() - t0

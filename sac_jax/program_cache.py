@@ -1,0 +1,116 @@
+"""Traced programs kept on disk, so a second process neither traces nor compiles.
+
+JAX's persistent compilation cache keeps compiled executables, but finding one still needs the
+program traced in Python first, and tracing the MJX training chunk takes about 10 s on a CPU.
+`cached_compile` keeps the traced program as well: the lowered StableHLO of `fn` at the given
+argument shapes, as a function of the arguments' flat leaves, serialized by `jax.export`, in a
+file named by a hash of everything the trace depends on:
+    what the caller names (e.g. the configuration and the number of seeds),
+    the arguments' leaves (their paths in the tree, shapes and dtypes) and the platform,
+    the versions of Python, jax, jaxlib, flax, optax, distrax, mujoco and mujoco-mjx,
+    the source of every module of `sac_jax` and `envs` (and the environments' assets).
+A later process reads the file, compiles the deserialized program (`Exported.call` under
+`jax.jit`; the persistent compilation cache then supplies the executable) and rebuilds the
+result's tree from the structure the caller states. A file that cannot be read is traced again
+and replaced; files are written under a temporary name and renamed.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.metadata
+import os
+import platform
+import sys
+from typing import Any, Callable, Optional, Sequence
+
+import jax
+from jax import export
+
+PACKAGES = ("jax", "jaxlib", "flax", "optax", "distrax", "mujoco", "mujoco-mjx")
+"""Installed packages whose code the traced programs contain."""
+SOURCE_PACKAGES = ("sac_jax", "envs")
+"""Packages whose source files (and assets) are hashed into every key."""
+
+
+@functools.lru_cache(maxsize=1)
+def _code_fingerprint() -> str:
+    """Hash of the Python and package versions and of the source files of SOURCE_PACKAGES."""
+    digest = hashlib.sha256(sys.version.encode())
+    for name in PACKAGES:
+        digest.update(f"{name}=={importlib.metadata.version(name)}".encode())
+    for package in SOURCE_PACKAGES:
+        root = os.path.dirname(sys.modules[package].__file__)
+        for folder, dirs, files in sorted(os.walk(root)):
+            dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+            for name in sorted(files):
+                if name.endswith((".py", ".xml")):
+                    path = os.path.join(folder, name)
+                    digest.update(os.path.relpath(path, root).encode())
+                    with open(path, "rb") as f:
+                        digest.update(f.read())
+    return digest.hexdigest()
+
+
+def program_file(name: str, args: Sequence[Any]) -> str:
+    """The file name of the traced program `name` (any string saying what the caller built,
+    e.g. a repr of the configuration) at arguments `args` (arrays or ShapeDtypeStructs)."""
+    leaves = [(jax.tree_util.keystr(path), tuple(x.shape), str(x.dtype))
+              for path, x in jax.tree_util.tree_flatten_with_path(list(args))[0]]
+    digest = hashlib.sha256()
+    for part in (name, repr(leaves), jax.default_backend(), platform.machine(),
+                 _code_fingerprint()):
+        digest.update(part.encode())
+        digest.update(b"\0")
+    return digest.hexdigest()[:32] + ".jaxexport"
+
+
+def _read(path: str) -> Optional[export.Exported]:
+    try:
+        with open(path, "rb") as f:
+            return export.deserialize(bytearray(f.read()))
+    except Exception:  # missing, damaged or from an incompatible jax: trace again
+        return None
+
+
+def _write(path: str, exported: export.Exported) -> None:
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    tmp = f"{path}.tmp-{os.getpid()}"
+    try:
+        with open(tmp, "wb") as f:
+            f.write(exported.serialize())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def cached_compile(fn: Callable, name: str, args: Sequence[Any], result: Any, directory: str,
+                   donate_first: bool = False, compiler_options: Optional[dict] = None
+                   ) -> Callable:
+    """`fn` compiled for arguments shaped like `args`, its traced program read from `directory`
+    if an earlier process left it there, else traced now and stored there. `result` has the
+    tree structure of what `fn` returns (e.g. the first argument, for a step function);
+    `donate_first` donates the first argument's buffers. Returns `program(*args)`."""
+    avals = jax.tree_util.tree_map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), list(args))
+    leaves, treedef = jax.tree_util.tree_flatten(avals)
+    result_tree = jax.tree_util.tree_structure(result)
+
+    def flat(*leaves):
+        out, out_tree = jax.tree_util.tree_flatten(fn(*jax.tree_util.tree_unflatten(treedef,
+                                                                                      leaves)))
+        if out_tree != result_tree:
+            raise ValueError(f"{name}: returns {out_tree}, stated {result_tree}")
+        return out
+
+    path = os.path.join(directory, program_file(name, avals))
+    exported = _read(path)
+    if exported is None:
+        exported = export.export(jax.jit(flat))(*leaves)
+        _write(path, exported)
+    donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
+    compiled = jax.jit(exported.call, donate_argnums=donated).lower(*leaves).compile(
+        compiler_options=compiler_options)
+    return lambda *args: jax.tree_util.tree_unflatten(
+        result_tree, compiled(*jax.tree_util.tree_leaves(list(args))))

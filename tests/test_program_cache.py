@@ -1,0 +1,82 @@
+"""sac_jax.program_cache: a traced program is stored once and read back by later calls without
+tracing, gives what `jax.jit` gives, donates when asked, and a damaged file is traced again."""
+
+import os
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sac_jax.program_cache import cached_compile, program_file
+from sac_jax.replay_buffer import Transition
+
+
+def _step_counting_traces(calls):
+    def step(state, scale):
+        calls.append(1)  # runs only while tracing
+        key, sub = jax.random.split(state["key"])
+        return {"key": key, "x": state["x"] * scale + jax.random.normal(sub, state["x"].shape),
+                "t": Transition(obs=state["t"].obs + 1, action=state["t"].action,
+                                reward=state["t"].reward, next_obs=state["t"].next_obs,
+                                terminated=state["t"].terminated)}
+    return step
+
+
+def _state():
+    z = lambda: jnp.zeros(2)  # a buffer of its own each, so all can be donated
+    return {"key": jax.random.key(0), "x": jnp.arange(3.0),
+            "t": Transition(obs=z(), action=z(), reward=z(), next_obs=z(), terminated=z())}
+
+
+def test_stored_once_then_read_without_tracing(tmp_path):
+    calls = []
+    step = _step_counting_traces(calls)
+    state, scale = _state(), jnp.float32(2.0)
+    first = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    assert len(calls) == 1 and len(os.listdir(tmp_path)) == 1
+    again = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    assert len(calls) == 1  # read back: not traced
+    expected = jax.jit(step)(state, scale)
+    for program in (first, again):
+        out = program(state, scale)
+        assert jax.tree_util.tree_structure(out) == jax.tree_util.tree_structure(expected)
+        for a, b in zip(jax.tree_util.tree_leaves(out), jax.tree_util.tree_leaves(expected)):
+            if jax.dtypes.issubdtype(a.dtype, jax.dtypes.prng_key):
+                a, b = jax.random.key_data(a), jax.random.key_data(b)
+            np.testing.assert_array_equal(a, b)
+
+
+def test_the_file_name_depends_on_name_shapes_and_dtypes():
+    state = _state()
+    names = {program_file("step", [state]), program_file("other", [state]),
+             program_file("step", [dict(state, x=jnp.arange(4.0))]),
+             program_file("step", [dict(state, x=jnp.arange(3))])}
+    assert len(names) == 4
+    assert program_file("step", [state]) == program_file("step", [_state()])
+
+
+def test_a_damaged_file_is_traced_again_and_replaced(tmp_path):
+    calls = []
+    step = _step_counting_traces(calls)
+    state, scale = _state(), jnp.float32(2.0)
+    cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    (path,) = [tmp_path / name for name in os.listdir(tmp_path)]
+    path.write_bytes(b"not a program")
+    program = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    assert len(calls) == 2 and path.read_bytes() != b"not a program"
+    np.testing.assert_array_equal(program(state, scale)["x"], jax.jit(step)(state, scale)["x"])
+
+
+def test_the_first_argument_is_donated_when_asked(tmp_path):
+    state, scale = _state(), jnp.float32(2.0)
+    program = cached_compile(_step_counting_traces([]), "step", [state, scale], state,
+                             str(tmp_path), donate_first=True)
+    program(state, scale)
+    assert state["x"].is_deleted() and not scale.is_deleted()
+
+
+def test_a_result_of_another_structure_is_refused(tmp_path):
+    state = _state()
+    with pytest.raises(ValueError, match="returns"):
+        cached_compile(lambda s: s["x"], "x", [state], state, str(tmp_path))
