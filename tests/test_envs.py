@@ -186,3 +186,35 @@ def test_import_prints_nothing():
         [sys.executable, "-c", "import envs"], capture_output=True, text=True, check=True
     )
     assert out.stdout == ""
+
+
+@pytest.mark.parametrize("name", ["InvertedPendulum-v5", "InvertedDoublePendulum-v5"])
+def test_line_search_cap_changes_nothing_with_the_limits_active(name):
+    """`envs.mjx_env.LS_ITERATIONS` against MuJoCo's default cap of 50: 8 envs pushed by full
+    actions (switching sign every 25 steps) into the slider limit, 200 steps without resets;
+    the constraint forces are non-zero on many steps, and every state is the same bit for
+    bit."""
+    from envs._mjx import mjx
+    from envs.mjx_env import LS_ITERATIONS
+
+    def rollout(env):
+        def run(key):
+            state = env.reset(key)
+
+            def step(state, i):
+                push = jnp.where(i % 40 < 25, 1.0, -1.0) * jnp.asarray(env.action_high)
+                state = env.step(state, push)
+                return state, (state.data.qpos, state.data.qvel, state.data.qfrc_constraint)
+
+            return jax.lax.scan(step, state, jnp.arange(200))[1]
+
+        return jax.device_get(jax.jit(jax.vmap(run))(jax.random.split(jax.random.key(1), 8)))
+
+    capped, default = envs.make(name), envs.make(name)
+    assert capped.mj_model.opt.ls_iterations == LS_ITERATIONS < 50
+    default.mj_model.opt.ls_iterations = 50
+    default.mjx_model = mjx.put_model(default.mj_model)
+    ours, theirs = rollout(capped), rollout(default)
+    assert np.sum(np.abs(ours[2]).max(axis=-1) > 0) > 100  # steps with a limit active
+    for a, b in zip(ours, theirs):
+        np.testing.assert_array_equal(a, b)
