@@ -99,15 +99,19 @@ class TrainParts(NamedTuple):
 
 def _shared_counter_axes() -> RunnerState:
     every = lambda cls: cls(**{f.name: 0 for f in dataclasses.fields(cls)})
-    return every(RunnerState).replace(sac=every(SACState).replace(step=None), iteration=None)
+    return every(RunnerState).replace(
+        sac=every(SACState).replace(step=None), iteration=None,
+        buffer=every(ReplayBuffer).replace(position=None, size=None))
 
 
 SEED_AXES = _shared_counter_axes()
 """`jax.vmap` axes of the `RunnerState` of many seeds trained in lock-step: a leading seed axis
-on every array but the two counters all seeds share, the iteration count and the update count
-`SACState.step`. They stay scalars, so the predicates of the loop's `lax.cond`s (prefill or
-learning, evaluation, policy delay, target period) stay unbatched: under `vmap` a batched
-predicate turns a `cond` into computing both branches and selecting."""
+on every array but the counters all seeds share: the iteration count, the update count
+`SACState.step` and the replay buffers' write position and size. They stay scalars, so the
+predicates of the loop's `lax.cond`s (prefill or learning, evaluation, policy delay, target
+period) stay unbatched (under `vmap` a batched predicate turns a `cond` into computing both
+branches and selecting), and every seed's buffer is written in place at one position (a
+per-seed position turns the write into a scatter)."""
 
 
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:

@@ -23,7 +23,7 @@ def run(tmp_path_factory):
     data = jax.tree_util.tree_map(lambda x: np.concatenate(
         [rng.normal(size=(x.shape[0], 40) + x.shape[2:]).astype(x.dtype), x[:, 40:]], axis=1),
         runner.buffer.data)
-    runner = runner.replace(buffer=runner.buffer.replace(data=data, size=np.full(2, 40, np.int32)))
+    runner = runner.replace(buffer=runner.buffer.replace(data=data, size=np.int32(40)))
     run_dir.save_checkpoint(out, runner, dict(position, chunks_done=3))
     return out, runner
 
