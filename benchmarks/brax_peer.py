@@ -6,10 +6,10 @@
 
 Brax's `sac.train` arguments are set from the preset wherever an argument exists:
 
-    num_envs = num_envs (8)              grad_updates_per_step = updates_per_step (8)
-    batch_size = batch_size (128)        learning_rate = actor_lr = critic_lr (1e-3)
-    discounting = gamma (0.99)           tau = tau (0.005)
-    reward_scaling = reward_scale (1)    min_replay_size = learning_starts (2,048)
+    num_envs = num_envs (8)              grad_updates_per_step = updates_per_step (4)
+    batch_size = batch_size (256)        learning_rate = actor_lr = critic_lr (3e-3)
+    discounting = gamma (0.99)           tau = tau (0.02)
+    reward_scaling = reward_scale (1)    min_replay_size = learning_starts (1,024)
     max_replay_size = buffer_size        num_eval_envs = eval_episodes (5)
     deterministic_eval = True            normalize_observations = False
     network_factory: hidden sizes actor_hidden = critic_hidden (64, 64), ReLU

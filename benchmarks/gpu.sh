@@ -22,9 +22,12 @@ case "$mode" in
   updates)
     python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 ;;
   train)
-    for seeds in 1 256; do
-      python3 scripts/train.py --seeds "$seeds" --cache-dir /tmp/jaxcache 2>&1 | tail -4
-    done ;;
+    for seed in 0 1 2; do
+      python3 scripts/train.py --seed "$seed" --cache-dir /tmp/jaxcache --out "/tmp/runs/1-$seed" \
+        2>&1 | tail -1
+    done
+    python3 scripts/train.py --seeds 256 --cache-dir /tmp/jaxcache --out /tmp/runs/256 2>&1 | tail -1
+    python3 benchmarks/solve_times.py /tmp/runs/* ;;
   parallel)
     python3 benchmarks/data_parallel.py
     python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384 ;;

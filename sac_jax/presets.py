@@ -34,9 +34,9 @@ PRESETS = {
         log_std_max=2.0, log_prob_correction="epsilon", alpha_init=0.5, log_alpha_init=0.0,
         alpha_loss="log_alpha", alpha_log_prob="reuse"),
     "fast": SACConfig(
-        env="InvertedPendulum-v5", num_envs=8, updates_per_step=8, total_steps=20_480,
-        learning_starts=2_048, buffer_size=20_480, batch_size=128, eval_every=2_048,
-        eval_episodes=5, actor_lr=1e-3, critic_lr=1e-3, alpha_lr=1e-3,
+        env="InvertedPendulum-v5", num_envs=8, updates_per_step=4, total_steps=12_288,
+        learning_starts=1_024, buffer_size=12_288, batch_size=256, eval_every=1_024,
+        eval_episodes=5, tau=0.02, actor_lr=3e-3, critic_lr=3e-3, alpha_lr=1e-3,
         actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
         log_prob_correction="exact"),
 }

@@ -15,8 +15,11 @@ def final_returns(config, seeds):
 
 
 def test_fast_preset_solves_inverted_pendulum_v5_for_two_of_two_seeds():
-    returns = final_returns(PRESETS["fast"], seeds=2)
-    assert np.all(returns >= 950.0), returns
+    """Solved as `summary.json`'s `solved_at_step` counts it: some evaluation of each seed
+    reaches 950. (Over 256 seeds on a GPU, 255 did, the median seed at 7,168 steps; 4 of them
+    were below 950 at the last evaluation, BENCHMARKS.md.)"""
+    returns = run_training(PRESETS["fast"], seeds=2).metrics["eval_return"]
+    assert np.all(np.max(returns, axis=1) >= 950.0), returns
 
 
 def test_pendulum_preset_reaches_minus_250_on_pendulum_v1():
