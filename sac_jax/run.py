@@ -1,10 +1,11 @@
 """Running a configuration from the host: compile once, train all seeds in one program, follow
 progress, check that the state stays finite, stop cleanly on request, and resume.
 
-The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`) from `sac_jax.train.make_train_parts`: a scan over a
-fixed number of iterations that evaluates where an evaluation period ends. The host calls it
-repeatedly (donating the state, so the replay buffers are updated in place), and between calls
-reads the evaluation points, checks for non-finite parameters and polls `should_stop`. The
+The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`) from `sac_jax.train.make_train_parts`:
+a scan over a fixed number of iterations that evaluates where an evaluation period ends. The
+host calls it repeatedly (donating the state, so the replay buffers are updated in place), and
+between calls reads the evaluation points, checks for non-finite parameters and polls
+`should_stop`. The
 program holds no host callback, so JAX's persistent compilation cache keeps it. Because each
 chunk is a pure function of the state, a run stopped at a chunk boundary and resumed from that
 state ends exactly where the uninterrupted run does.
