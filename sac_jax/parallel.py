@@ -1,11 +1,13 @@
-"""Spreading training over devices: a `jax.sharding.Mesh` with one named axis; seeds split by
-sharding their axis, one run split data parallel with `jax.shard_map`.
+"""Spreading training over devices: a `jax.sharding.Mesh` with one named axis, and programs
+mapped with `jax.vmap` whose mapped axis is split over it by `NamedSharding` (XLA's partitioner
+then compiles one program per device and the collectives between them).
 
 Seeds over devices (axis "seeds"): the S independent runs of `jax.vmap(train)` are split into
 D groups of S/D, one per device, by sharding the seed axis (`NamedSharding`); the program is
 the same, and the devices never communicate.
 
-Data parallel (axis "data"): one run, spread over D devices. Device d steps num_envs/D of the
+Data parallel (axis "data"): one run, spread over D devices as D shares vmapped with the axis's
+name and split over the devices (`DATA_AXES`). Device d steps num_envs/D of the
 environments, keeps its own replay buffer of buffer_size/D transitions, and draws batch_size/D
 of each minibatch from it. Every update averages its gradients and losses over the axis
 (`config.data_parallel_axis`, see `sac_jax.updates`), so a global update on D shares of B/D
@@ -30,14 +32,12 @@ from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
 from sac_jax.config import SACConfig
-from sac_jax.train import METRIC_NAMES, RunnerState, TrainParts, make_train_parts
+from sac_jax.train import METRIC_NAMES, SEED_AXES, RunnerState, TrainParts, make_train_parts
 
 SEEDS = "seeds"
 DATA = "data"
 SHARDED_FIELDS = ("num_envs", "buffer_size", "batch_size", "learning_starts", "eval_every")
 """Config sizes a data-parallel run divides among its devices."""
-PER_DEVICE_FIELDS = ("env", "buffer", "key", "sums", "outputs")
-"""`RunnerState` fields that each device of a data-parallel run holds for itself."""
 
 
 def make_mesh(axis: str, devices: Optional[Sequence[jax.Device]] = None) -> Mesh:
@@ -53,6 +53,14 @@ def _axis(mesh: Mesh) -> str:
     return mesh.axis_names[0]
 
 
+def _shardings(axes, mesh: Mesh):
+    """For a tree of `jax.vmap` axes: leaves mapped on axis 0 split over the mesh's axis,
+    unmapped (None) leaves whole on every device."""
+    split, whole = NamedSharding(mesh, P(_axis(mesh))), NamedSharding(mesh, P())
+    return jax.tree_util.tree_map(lambda axis: whole if axis is None else split, axes,
+                                  is_leaf=lambda axis: axis is None)
+
+
 # ---------------------------------------------------------------------------- seeds
 def over_seeds(fn: Callable, mesh: Mesh, in_axes=0, out_axes=0, donate: bool = False
                ) -> Callable:
@@ -66,11 +74,8 @@ def over_seeds(fn: Callable, mesh: Mesh, in_axes=0, out_axes=0, donate: bool = F
     partitioner (seeds never communicate, so it inserts no collective). `jax.shard_map` would
     say the same thing, but XLA's GPU compiler of jax 0.11.2 crashes on the shard_mapped
     training program (BENCHMARKS.md), while this form compiles and runs on 2 GPUs."""
-    split, whole = NamedSharding(mesh, P(_axis(mesh))), NamedSharding(mesh, P())
-    shardings = lambda axes: jax.tree_util.tree_map(
-        lambda axis: whole if axis is None else split, axes, is_leaf=lambda axis: axis is None)
-    return jax.jit(jax.vmap(fn, in_axes, out_axes), in_shardings=shardings(in_axes),
-                   out_shardings=shardings(out_axes), donate_argnums=(0,) if donate else ())
+    return jax.jit(jax.vmap(fn, in_axes, out_axes), in_shardings=_shardings(in_axes, mesh),
+                   out_shardings=_shardings(out_axes, mesh), donate_argnums=(0,) if donate else ())
 
 
 def seeds_program(fn: Callable, seeds: int, in_axes=0, out_axes=0, donate: bool = False
@@ -101,45 +106,46 @@ def local_config(config: SACConfig, num_devices: int, axis: str = DATA) -> SACCo
     return config.replace(**shares, total_steps=total, data_parallel_axis=axis)
 
 
-def _runner_specs(axis: str) -> RunnerState:
-    """Learner state and iteration count are the same on all devices and stored once; the rest
-    belongs to one device and carries a leading device axis, split over `axis`."""
-    return RunnerState(sac=P(), iteration=P(), **{name: P(axis) for name in PER_DEVICE_FIELDS})
+DATA_AXES = SEED_AXES.replace(sac=None)
+"""`jax.vmap` axes of a data-parallel run's state over its D device shares: the learner state
+(every update averages over the axis, so all shares hold the same) and the counters are held
+once; environments, replay buffer data, keys, sums and outputs have a leading axis D."""
 
 
-def _device_axis(runner: RunnerState, add: bool) -> RunnerState:
-    """Adds (or removes) the leading device axis of size 1 on a device's own fields."""
-    shape = (lambda x: x[None]) if add else (lambda x: x[0])
-    own = {name: jax.tree_util.tree_map(shape, getattr(runner, name))
-           for name in PER_DEVICE_FIELDS}
-    return runner.replace(**own)
+def _constrain(tree, axes, mesh: Mesh):
+    """`tree`, mapped on `axes`, constrained to `_shardings(axes, mesh)`."""
+    return jax.lax.with_sharding_constraint(tree, _shardings(axes, mesh))
 
 
 def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     """`TrainParts` of one run of `config` spread over the mesh's single axis (see the module
-    docstring); `config` holds the global sizes. `init(key)` and `chunk(runner)` are shard_mapped
-    functions (jit them); the runner's `sac` and `iteration` are as in a one-device run, its
-    `env`, `buffer`, `key`, `sums` and `outputs` have a leading device axis of size D
+    docstring); `config` holds the global sizes. `init(key)` and `chunk(runner)` map the
+    one-device program over the D shares with `jax.vmap` (axis named like the mesh's, so the
+    updates' `pmean` averages over it) and state the split of the shares over the devices as
+    sharding constraints, which XLA's partitioner turns into per-device programs and an
+    all-reduce per update (jit them). The runner's `sac` and counters are as in a one-device
+    run; its `env`, `buffer.data`, `key`, `sums` and `outputs` have a leading axis D
     (`data_parallel_metrics` turns the outputs into the run's metrics)."""
     axis = _axis(mesh)
     parts = make_train_parts(local_config(config, mesh.size, axis))
-    specs = _runner_specs(axis)
 
     def init(key: jax.Array) -> RunnerState:
-        index = jax.lax.axis_index(axis)
-        own_key = jnp.where(index == 0, key, jax.random.fold_in(key, index))
-        runner = parts.init(own_key).replace(sac=parts.init(key).sac)
-        return _device_axis(runner, add=True)
+        sac = parts.init(key).sac
+
+        def share(index):
+            own_key = jnp.where(index == 0, key, jax.random.fold_in(key, index))
+            return parts.init(own_key).replace(sac=sac)
+
+        runner = jax.vmap(share, out_axes=DATA_AXES, axis_name=axis)(jnp.arange(mesh.size))
+        return _constrain(runner, DATA_AXES, mesh)
 
     def chunk(runner: RunnerState) -> RunnerState:
-        return _device_axis(parts.chunk(_device_axis(runner, add=False)), add=True)
+        runner = jax.vmap(parts.chunk, in_axes=(DATA_AXES,), out_axes=DATA_AXES,
+                          axis_name=axis)(_constrain(runner, DATA_AXES, mesh))
+        return _constrain(runner, DATA_AXES, mesh)
 
-    # check_vma=False: the learner state is replicated because every update averages over the
-    # axis explicitly, which the varying-axes type check cannot see through.
-    return TrainParts(
-        init=jax.shard_map(init, mesh=mesh, in_specs=P(), out_specs=specs, check_vma=False),
-        chunk=jax.shard_map(chunk, mesh=mesh, in_specs=(specs,), out_specs=specs, check_vma=False),
-        chunk_iterations=parts.chunk_iterations, num_chunks=parts.num_chunks)
+    return TrainParts(init=init, chunk=chunk, chunk_iterations=parts.chunk_iterations,
+                      num_chunks=parts.num_chunks)
 
 
 def data_parallel_metrics(outputs: Dict[str, jax.Array]) -> Dict[str, jax.Array]:

@@ -16,6 +16,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+from jax.sharding import NamedSharding  # noqa: E402
 from jax.sharding import PartitionSpec as P  # noqa: E402
 
 import sac_jax  # noqa: E402
@@ -88,12 +89,19 @@ def _global_batch(key, batch_size):
 
 def check_updates() -> dict:
     """One `sac_update` on a global batch of 32 with injected noise: on one device, and data
-    parallel over 2 devices (16 samples and the matching noise each), each device's resulting
-    state (parameters, targets, optimiser states, temperature) and metrics compared. The state first takes 3 single-device updates so Adam's moments
-    are not at their first step. Control: the same without averaging over devices."""
+    parallel over 2 devices as `parallel.make_data_parallel_parts` runs it (the update vmapped
+    over 2 shares of 16 samples and the matching noise, axis "data", the shares split over the
+    devices), each share's resulting state (parameters, targets, optimiser states, temperature)
+    and metrics compared. The state first takes 3 single-device updates so Adam's moments are
+    not at their first step. Control: the same without averaging over the axis."""
     mesh = parallel.make_mesh(parallel.DATA)
-    noise_specs = {"critic": P("data"), "value": P("data"), "actor": P(None, "data"),
-                   "temperature": P(None, "data")}
+    split, whole = NamedSharding(mesh, P("data")), NamedSharding(mesh, P())
+    batch_axis = {"critic": 0, "value": 0, "actor": 1, "temperature": 1}  # of each noise array
+
+    def shares(x, axis):
+        """x with its batch axis `axis` cut into 2 shares, on a new leading axis."""
+        x = x.reshape(x.shape[:axis] + (2, x.shape[axis] // 2) + x.shape[axis + 1:])
+        return jnp.moveaxis(x, axis, 0)
     update = jax.jit(sac_jax.sac_update)
     out = {}
     for name, config in UPDATE_CONFIGS.items():
@@ -107,14 +115,12 @@ def check_updates() -> dict:
         single = jax.device_get(update(agent, state, batch, noise))
 
         def per_device(cfg):
-            """Each device's (state, metrics) after the data-parallel update, stacked."""
-            def body(state, batch, noise):
-                result = sac_jax.sac_update(_pendulum_agent(cfg), state, batch, noise)
-                return jax.tree_util.tree_map(lambda x: x[None], result)
-
-            fn = jax.shard_map(body, mesh=mesh, in_specs=(P(), P("data"), noise_specs),
-                               out_specs=P("data"), check_vma=False)
-            return jax.device_get(jax.jit(fn)(state, batch, noise))
+            """Each share's (state, metrics) after the data-parallel update, stacked."""
+            fn = jax.vmap(lambda s, b, n: sac_jax.sac_update(_pendulum_agent(cfg), s, b, n),
+                          in_axes=(None, 0, 0), out_axes=0, axis_name="data")
+            return jax.device_get(jax.jit(fn, in_shardings=(whole, split, split))(
+                state, jax.tree_util.tree_map(lambda x: shares(x, 0), batch),
+                {name: shares(x, batch_axis[name]) for name, x in noise.items()}))
 
         averaged = per_device(config.replace(data_parallel_axis="data"))
         control = per_device(config)

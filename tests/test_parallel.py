@@ -43,8 +43,8 @@ def test_data_parallel_update_equals_the_single_device_update(checks, variant):
 
 @pytest.mark.parametrize("variant", ["v2", "v1"])
 def test_without_averaging_the_update_differs(checks, variant):
-    """The same shard_mapped update with `data_parallel_axis=None`: each device steps on its own
-    half-batch, so the check above would fail (measured 0.05 on the state, 38% on metrics)."""
+    """The same vmapped, sharded update with `data_parallel_axis=None`: each device steps on its
+    own half-batch, so the check above would fail (measured 0.05 on the state, 38% on metrics)."""
     control = checks["updates"][variant]["control"]
     assert control["state_diff"] > 1e-3 and control["between_devices"] > 1e-3, control
     assert control["metrics_rel_diff"] > 1e-2, control
@@ -65,11 +65,12 @@ def test_seeds_sharded_over_devices_equal_the_unsharded_vmap(checks):
 
 
 def test_one_device_mesh_reproduces_make_train(checks):
-    """Same random-action prefill bit for bit (device 0 keeps the run's key); afterwards the
-    shard_mapped program rounds differently: measured 8e-8 relative at the first evaluation,
-    2.7e-5 over the run, 1.5% of the largest actor parameter. Bounds 1e-6, 1e-3, 5%."""
+    """Same random-action prefill up to float32 rounding (device 0 keeps the run's key; the
+    vmapped program rounds differently: measured 1.2e-7, one ulp of the observations), then
+    the same run up to rounding: measured 1.0e-7 relative at the first evaluation, 2.3e-4 over
+    the run, 1.7% of the largest actor parameter. Bounds 1e-6, 1e-6, 1e-3, 5%."""
     check = checks["one_device"]
-    assert check["prefill_diff"] == 0.0, check
+    assert check["prefill_diff"] <= 1e-6, check
     diffs = check["metrics_rel_diff"]
     assert diffs[0] <= 1e-6 and max(diffs) <= 1e-3, diffs
     assert check["params_diff"] <= 0.05 * check["params_scale"], check
@@ -80,7 +81,7 @@ def test_data_parallel_training_learns_pendulum():
     """The pendulum preset (2 environments, 2 updates per iteration) spread over 2 devices
     reaches the task's threshold of -250 (a random policy scores about -1200)."""
     check = run_checks("learning")["learning"]
-    assert check["env_steps"][-1] == 11_000 and check["buffer_size"] == [5_500, 5_500], check
+    assert check["env_steps"][-1] == 11_000 and check["buffer_size"] == 5_500, check
     assert check["eval_return"][-1] >= -250.0, check
     assert check["finite_params"]
 
@@ -88,8 +89,8 @@ def test_data_parallel_training_learns_pendulum():
 def test_local_config_divides_the_sizes_and_keeps_the_schedule():
     config = PRESETS["fast"]
     local = parallel.local_config(config, 4)
-    assert (local.num_envs, local.batch_size, local.buffer_size) == (2, 32, 5_120)
-    assert (local.learning_starts, local.eval_every, local.total_steps) == (512, 512, 5_120)
+    assert (local.num_envs, local.batch_size, local.buffer_size) == (2, 64, 3_072)
+    assert (local.learning_starts, local.eval_every, local.total_steps) == (256, 256, 3_072)
     assert local.num_evals == config.num_evals
     assert local.prefill_iterations == config.prefill_iterations
     assert local.iterations_per_eval == config.iterations_per_eval
