@@ -5,10 +5,9 @@ The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`) from `sac_jax.train.ma
 a scan over a fixed number of iterations that evaluates where an evaluation period ends. The
 host calls it repeatedly (donating the state, so the replay buffers are updated in place), and
 between calls reads the evaluation points, checks for non-finite parameters and polls
-`should_stop`. The
-program holds no host callback, so JAX's persistent compilation cache keeps it. Because each
-chunk is a pure function of the state, a run stopped at a chunk boundary and resumed from that
-state ends exactly where the uninterrupted run does.
+`should_stop`. The program holds no host callback, so JAX's persistent compilation cache keeps
+it. Because each chunk is a pure function of the state, a run stopped at a chunk boundary and
+resumed from that state ends exactly where the uninterrupted run does.
 """
 
 from __future__ import annotations

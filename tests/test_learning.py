@@ -15,11 +15,12 @@ def final_returns(config, seeds):
 
 
 def test_fast_preset_solves_inverted_pendulum_v5_for_two_of_two_seeds():
-    """Solved as `summary.json`'s `solved_at_step` counts it: some evaluation of each seed
-    reaches 950. (Over 256 seeds on a GPU, 255 did, the median seed at 7,168 steps; 4 of them
-    were below 950 at the last evaluation, BENCHMARKS.md.)"""
+    """Each seed solves (`summary.json`'s `solved_at_step`: some evaluation reaches 950) and
+    ends at >= 950. (Over 256 seeds on a GPU, 255 solved, the median seed at 7,168 steps, and
+    252 ended at >= 950, BENCHMARKS.md; here both seeds end at 1000.)"""
     returns = run_training(PRESETS["fast"], seeds=2).metrics["eval_return"]
     assert np.all(np.max(returns, axis=1) >= 950.0), returns
+    assert np.all(returns[:, -1] >= 950.0), returns
 
 
 def test_pendulum_preset_reaches_minus_250_on_pendulum_v1():
