@@ -55,6 +55,15 @@ class VectorStep(struct.PyTreeNode):
     episode_length: jax.Array
 
 
+def where_rows(mask: jax.Array, new, old):
+    """The batched pytree with row i of every leaf from `new` where mask[i], else from `old`.
+
+    mask (n,) bool; `new` and `old` pytrees of the same structure, every leaf with leading axis n.
+    """
+    return jax.tree_util.tree_map(
+        lambda a, b: jnp.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b), new, old)
+
+
 class VectorEnv:
     """n copies of ``env`` stepped in lock-step, with auto-reset (see the module docstring)."""
 
@@ -101,15 +110,9 @@ class VectorEnv:
         episode_length = vstate.episode_length + 1
         key, reset_key = jax.random.split(vstate.key)
 
-        def reset_done(state: EnvState) -> EnvState:
-            fresh = self._reset_all(reset_key)
-
-            def select(new: jax.Array, old: jax.Array) -> jax.Array:
-                return jnp.where(done.reshape((-1,) + (1,) * (old.ndim - 1)), new, old)
-
-            return jax.tree_util.tree_map(select, fresh, state)
-
-        env_state = jax.lax.cond(jnp.any(done), reset_done, lambda state: state, stepped)
+        env_state = jax.lax.cond(
+            jnp.any(done), lambda state: where_rows(done, self._reset_all(reset_key), state),
+            lambda state: state, stepped)
         next_vstate = VectorState(
             env_state=env_state,
             key=key,
