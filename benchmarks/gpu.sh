@@ -4,7 +4,7 @@
 # .whl/ (see BENCHMARKS.md), brax and its imported needs too (brax, jaxopt, ml_collections,
 # orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
 # and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
-# Usage: bash benchmarks/gpu.sh env|updates|train
+# Usage: bash benchmarks/gpu.sh env|updates|train|evaluation
 #        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
@@ -28,9 +28,13 @@ case "$mode" in
     done
     python3 scripts/train.py --seeds 256 --cache-dir /tmp/jaxcache --out /tmp/runs/256 2>&1 | tail -1
     python3 benchmarks/solve_times.py /tmp/runs/* ;;
+  evaluation)
+    python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1
+    python3 benchmarks/evaluation_cost.py /tmp/policy-run ;;
   parallel)
     python3 benchmarks/data_parallel.py
-    python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384 ;;
+    python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384
+    python3 benchmarks/data_parallel.py --num-envs 524288 --batch-size 131072 --repeats 3 ;;
   brax|brax-cpu)
     if ! out=$(python3 -c "import PIL, scipy, brax.training.agents.sac.train" 2>&1); then
       echo "$out" | tail -5; echo "brax does not import"; exit 1

@@ -1,13 +1,22 @@
-"""Gradient-update throughput: `sac_jax.sac_update` vs the PyTorch seed-002 update, same run.
+"""Gradient-update throughput: `sac_jax.sac_update` vs the PyTorch seed-002 update, and the
+roofline, measured side by side in one run.
 
 Both run the `cleanrl` preset's sizes (batch 256, 256x256 networks, policy delay 2) on
 InvertedPendulum-v4 shapes, sampling each batch from a replay buffer of random transitions:
 ours as a jitted `lax.scan` of `--updates` updates on device; PyTorch as CleanRL's Python loop
-(numpy index sampling, tensor gather, `update`). Also reported: FLOPs of one update from XLA's
-cost analysis, the matmul rate JAX reaches on this machine (a 1024^3 product), and the fraction
-of that roofline our update reaches. Each figure is the median of `--repeats` timings.
+(numpy index sampling, tensor gather, `update`) of as many updates.
 
-    python benchmarks/update_throughput.py --updates 500 --repeats 3
+Roofline: FLOPs of one update from XLA's cost analysis, times updates/s, against two matmul
+rates JAX reaches on this machine: a 1024^3 product (the machine's matmul roofline, best of 5
+calls) and a chain of 200 products at the update's own layer shape (batch x width by width x
+width, here 256^3).
+
+All four are timed in alternation, `--rounds` rounds, and the ratios are formed within each
+round before the median is taken: the load of a shared machine drifts over seconds (this VM's
+1024^3 rate ranged 85-167 GFLOP/s between runs), and what drifts cancels out of a ratio of
+timings taken moments apart.
+
+    python benchmarks/update_throughput.py --updates 100 --rounds 10
 """
 
 from __future__ import annotations
@@ -33,13 +42,14 @@ from tests.reference.cleanrl_sac import CleanRLSAC, make_batch  # noqa: E402
 OBS, ACT, CAPACITY = 4, 1, 100_000
 
 
-def median_time(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
+def seconds(fn, calls=1):
+    """The shortest of `calls` timings of fn()."""
+    best = float("inf")
+    for _ in range(calls):
+        start = time.perf_counter()
         fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
+        best = min(best, time.perf_counter() - start)
+    return best
 
 
 def random_data(rng):
@@ -50,12 +60,14 @@ def random_data(rng):
                 terminated=(rng.uniform(size=CAPACITY) < 0.01).astype(np.float32))
 
 
-def jax_updates_per_s(config, data, updates, repeats):
+def jax_updates(config, data, updates):
+    """(FLOPs of one `sac_update`, `run()` doing `updates` updates in one jitted scan on batches
+    sampled from a buffer of `data`, compiled and warmed up)."""
     agent = sac_jax.make_agent(config, OBS, ACT, -3.0, 3.0)
     buffer = rb.ReplayBuffer(data=sac_jax.Transition(**{k: jnp.asarray(v) for k, v in data.items()}),
                              position=jnp.int32(0), size=jnp.int32(CAPACITY))
 
-    def run(state, key):
+    def scanned(state, key):
         def one(state, key):
             k_batch, k_noise = jax.random.split(key)
             batch = rb.sample(buffer, k_batch, config.batch_size)
@@ -63,23 +75,25 @@ def jax_updates_per_s(config, data, updates, repeats):
         return jax.lax.scan(one, state, jax.random.split(key, updates))[0]
 
     state = agent.init(jax.random.key(0))
-    run = jax.jit(run)
-    jax.block_until_ready(run(state, jax.random.key(1)))  # compile and warm up
-    seconds = median_time(lambda: jax.block_until_ready(run(state, jax.random.key(2))), repeats)
+    scanned = jax.jit(scanned)
+    jax.block_until_ready(scanned(state, jax.random.key(1)))  # compile and warm up
     single = jax.jit(sac_jax.sac_update).lower(
         agent, state, rb.sample(buffer, jax.random.key(0), config.batch_size),
         jax.random.key(0)).compile()
     cost = single.cost_analysis()
     cost = cost[0] if isinstance(cost, (list, tuple)) else cost
-    return updates / seconds, float(cost.get("flops", float("nan")))
+    keys = iter(jax.random.split(jax.random.key(2), 10_000))
+    return (float(cost.get("flops", float("nan"))),
+            lambda: jax.block_until_ready(scanned(state, next(keys))))
 
 
-def torch_updates_per_s(data, updates, repeats):
+def torch_updates(data, updates):
+    """`run()` doing `updates` PyTorch seed-002 updates the CleanRL way, warmed up."""
     ref = CleanRLSAC(OBS, ACT, np.full(ACT, -3.0), np.full(ACT, 3.0))
     rng = np.random.default_rng(0)
     step = {"global": 5000}
 
-    def loop():
+    def run():
         for _ in range(updates):
             idx = rng.integers(0, CAPACITY, 256)
             batch = make_batch(data["obs"][idx], data["action"][idx], data["reward"][idx],
@@ -90,37 +104,66 @@ def torch_updates_per_s(data, updates, repeats):
             step["global"] += 1
             ref.update(batch, noise, step["global"])
 
-    loop()  # warm up
-    return updates / median_time(loop, repeats)
+    run()
+    return run
 
 
-def matmul_flops_per_s(repeats, n=1024):
-    a = jax.random.normal(jax.random.key(0), (n, n))
-    f = jax.jit(lambda a: a @ a)
-    jax.block_until_ready(f(a))
-    return 2 * n ** 3 / median_time(lambda: jax.block_until_ready(f(a)), repeats * 5)
+def matmuls(config):
+    """(1024^3 product, its FLOPs), (chain of 200 products at the layer shape, its FLOPs), each
+    as a warmed-up `run()`."""
+    big = jax.random.normal(jax.random.key(0), (1024, 1024))
+    square = jax.jit(lambda a: a @ a)
+    b, width = config.batch_size, config.critic_hidden[0]
+    x = jax.random.normal(jax.random.key(1), (b, width))
+    w = jax.random.normal(jax.random.key(2), (width, width)) / width ** 0.5
+    chain = jax.jit(lambda x: jax.lax.scan(lambda x, _: (jnp.tanh(x @ w), None), x, None,
+                                           length=200)[0])
+    runs = (lambda: jax.block_until_ready(square(big)), lambda: jax.block_until_ready(chain(x)))
+    for run in runs:
+        run()
+    return (runs[0], 2 * 1024 ** 3), (runs[1], 200 * 2 * b * width ** 2)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--updates", type=int, default=500)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--updates", type=int, default=100, help="updates per timing")
+    parser.add_argument("--rounds", type=int, default=10)
     args = parser.parse_args()
     config = sac_jax.PRESETS["cleanrl"]
     data = random_data(np.random.default_rng(0))
-    ours, flops = jax_updates_per_s(config, data, args.updates, args.repeats)
-    theirs = torch_updates_per_s(data, args.updates, args.repeats)
-    peak = matmul_flops_per_s(args.repeats)
+    flops, ours_run = jax_updates(config, data, args.updates)
+    theirs_run = torch_updates(data, args.updates)
+    (square, square_flops), (chain, chain_flops) = matmuls(config)
+    rounds = []
+    for _ in range(args.rounds):
+        ours = args.updates / seconds(ours_run)
+        theirs = args.updates / seconds(theirs_run)
+        peak = square_flops / seconds(square, 5)
+        layer = chain_flops / seconds(chain)
+        rounds.append({"ours": ours, "theirs": theirs, "peak": peak, "layer": layer,
+                       "speedup": ours / theirs, "of_peak": ours * flops / peak,
+                       "of_layer": ours * flops / layer})
+    med = {name: statistics.median(r[name] for r in rounds) for name in rounds[0]}
+    low = {name: min(r[name] for r in rounds) for name in rounds[0]}
+    high = {name: max(r[name] for r in rounds) for name in rounds[0]}
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"jax {jax.__version__} on {jax.devices()[0].platform}, torch {torch.__version__} "
-          f"({torch.get_num_threads()} threads)")
-    print("| implementation | updates/s | ratio |")
+          f"({torch.get_num_threads()} threads); {args.rounds} rounds of {args.updates} updates")
+    print("| figure | median | range over rounds |")
     print("| --- | ---: | ---: |")
-    print(f"| sac_jax sac_update (scan) | {ours:.1f} | {ours / theirs:.2f}x |")
-    print(f"| PyTorch seed-002 loop | {theirs:.1f} | 1.00x |")
-    print(f"FLOPs per update (XLA cost analysis): {flops / 1e6:.0f} M; JAX matmul rate "
-          f"{peak / 1e9:.1f} GFLOP/s; ours reaches {ours * flops / peak:.0%} of that roofline")
+    for name, label, fmt in [
+            ("ours", "sac_jax `sac_update` (scan), updates/s", "{:.1f}"),
+            ("theirs", "PyTorch seed-002 loop, updates/s", "{:.1f}"),
+            ("speedup", "ours / PyTorch (per round)", "{:.2f}x"),
+            ("peak", "JAX 1024^3 matmul, GFLOP/s", "{:.1f}"),
+            ("layer", "JAX chain at the layer shape, GFLOP/s", "{:.1f}"),
+            ("of_peak", "ours / 1024^3 roofline (per round)", "{:.0%}"),
+            ("of_layer", "ours / layer-shape rate (per round)", "{:.0%}")]:
+        scale = 1e-9 if name in ("peak", "layer") else 1
+        print(f"| {label} | {fmt.format(med[name] * scale)} | "
+              f"{fmt.format(low[name] * scale)} - {fmt.format(high[name] * scale)} |")
+    print(f"FLOPs per update (XLA cost analysis): {flops / 1e6:.0f} M")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,95 @@
+"""Seconds of one evaluation of many seeds (`jax.vmap(sac_jax.evaluate)`, 5 episodes each).
+
+    python benchmarks/evaluation_cost.py RUN_DIR [--seeds 256] [--repeats 3]
+
+RUN_DIR is a finished `scripts/train.py` run whose seed 0 balances InvertedPendulum-v5 (its
+episodes last the full 1,000 steps). Three populations of `--seeds` actors, evaluated in one
+jitted `vmap` as in a multi-seed training run:
+
+    trained      every seed the trained actor: all episodes run 1,000 steps
+    half fallen  even seeds trained, odd seeds freshly initialised (their pendulums fall within
+                 a few dozen steps), as in the evaluations of a run whose seeds are half solved
+    untrained    every seed freshly initialised: short episodes
+
+and, for the half-fallen population, the earlier loop that stepped ended episodes on from where
+they ended (`run_on_evaluate` below, the "before" of BENCHMARKS.md). Each figure is the median
+of `--repeats` timings after a first, compiling call; the returns are printed to show that both
+loops give the same ones.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+import sac_jax  # noqa: E402
+from envs.vector import where_rows  # noqa: E402
+from sac_jax.evaluation import initial_states  # noqa: E402
+from sac_jax.train import agent_for  # noqa: E402
+
+EPISODES = 5
+
+
+def run_on_evaluate(agent, env, actor_params, key, num_episodes):
+    """The evaluation loop before ended episodes were restarted: they step on from where they
+    ended (into the pendulum's joint limits) until the last episode ends."""
+    def step(carry):
+        states, alive, returns = carry
+        states = jax.vmap(env.step)(states, agent.act(actor_params, states.obs))
+        returns = returns + jnp.where(alive, states.reward, 0.0)
+        return states, alive & ~(states.terminated | states.truncated), returns
+
+    init = (initial_states(env, key, num_episodes), jnp.ones(num_episodes, bool),
+            jnp.zeros(num_episodes, jnp.float32))
+    return jax.lax.while_loop(lambda carry: jnp.any(carry[1]), step, init)[2]
+
+
+def timed(fn, args, repeats):
+    start = time.perf_counter()
+    returns = np.asarray(jax.block_until_ready(fn(*args)))
+    first = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        jax.block_until_ready(fn(*args))
+        times.append(time.perf_counter() - start)
+    return {"first_call_s": round(first, 2), "seconds": round(statistics.median(times), 4),
+            "longest_episode": int(returns.max()), "mean_return": round(float(returns.mean()), 2)}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run_dir")
+    parser.add_argument("--seeds", type=int, default=256)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    policy = sac_jax.load_policy(args.run_dir)
+    agent, env = agent_for(policy.config)
+    seeds = args.seeds
+    trained = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (seeds,) + x.shape),
+                                     policy.actor_params)
+    untrained = jax.vmap(agent.init)(jax.random.split(jax.random.key(5), seeds)).actor_params
+    half = where_rows(jnp.arange(seeds) % 2 == 0, trained, untrained)
+    keys = jax.random.split(jax.random.key(0), seeds)
+    new = jax.jit(jax.vmap(lambda p, k: sac_jax.evaluate(agent, env, p, k, EPISODES)))
+    old = jax.jit(jax.vmap(lambda p, k: run_on_evaluate(agent, env, p, k, EPISODES)))
+    results = {name: timed(fn, (params, keys), args.repeats) for name, fn, params in [
+        ("trained", new, trained), ("half fallen", new, half),
+        ("half fallen, run-on loop", old, half), ("untrained", new, untrained)]}
+    print(json.dumps({"benchmark": "evaluation_cost", "device": jax.devices()[0].device_kind,
+                      "seeds": seeds, "episodes_per_seed": EPISODES, **results}))
+
+
+if __name__ == "__main__":
+    main()
