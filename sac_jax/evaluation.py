@@ -27,7 +27,7 @@ def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int)
     solver's iterations (a `while_loop` over the whole batch under `vmap`) then run for every
     instance; so do they, on a GPU, when the policy's action pushes the initial state. With
     half of 256 x 5 episodes ended early, this evaluation is as fast as one where none ends
-    (BENCHMARKS.md: 2.1 s against 5.9-7.1 s stepping on; `tests/test_evaluation.py` checks
+    (BENCHMARKS.md, H100: 2.2 s against 7.2 s stepping on; `tests/test_evaluation.py` checks
     the returns against episodes run one by one).
     """
     start = initial_states(env, key, num_episodes)
