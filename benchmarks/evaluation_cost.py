@@ -13,8 +13,8 @@ jitted `vmap` as in a multi-seed training run:
 
 and, for the half-fallen population, the earlier loop that stepped ended episodes on from where
 they ended (`run_on_evaluate` below, the "before" of BENCHMARKS.md). Each figure is the median
-of `--repeats` timings after a first, compiling call; the returns are printed to show that both
-loops give the same ones.
+of `--repeats` timings after a first, compiling call; each population's mean return and longest
+episode are printed beside it (both loops give the same).
 """
 
 from __future__ import annotations

@@ -22,6 +22,7 @@ timings taken moments apart.
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import platform
 import statistics
@@ -82,9 +83,9 @@ def jax_updates(config, data, updates):
         jax.random.key(0)).compile()
     cost = single.cost_analysis()
     cost = cost[0] if isinstance(cost, (list, tuple)) else cost
-    keys = iter(jax.random.split(jax.random.key(2), 10_000))
-    return (float(cost.get("flops", float("nan"))),
-            lambda: jax.block_until_ready(scanned(state, next(keys))))
+    calls = itertools.count()
+    return (float(cost.get("flops", float("nan"))), lambda: jax.block_until_ready(
+        scanned(state, jax.random.fold_in(jax.random.key(2), next(calls)))))
 
 
 def torch_updates(data, updates):
