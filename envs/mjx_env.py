@@ -15,16 +15,16 @@ from envs._mjx import mjx, mjx_forward, mjx_scan
 from envs.types import Env
 
 
-LS_ITERATIONS = 8
+LS_ITERATIONS = 3
 """Cap on the constraint solver's line-search iterations (MuJoCo's default cap: 50).
 
 MJX runs its line search as a scan over the cap, each step a `lax.cond` that is a no-op once
 the search has converged; under `vmap` that cond computes its step anyway, and on a GPU each
 scan step is a sequential launch, so the cap, not the iterations needed, sets the cost. C
 MuJoCo and MJX both stop at convergence, so a cap that is never reached changes nothing: on
-these models the search converges in at most 2 iterations, also with the joint limits active
-(tests/test_envs.py checks cap 8 against cap 50, bit for bit, on trajectories pushed into the
-limits)."""
+these models the search converges in at most 2 iterations, also with the joint limits active,
+and 3 leaves one spare (tests/test_envs.py checks cap 3 against cap 50, bit for bit, on
+trajectories pushed into the limits, and that cap 1 does change them)."""
 
 
 class MjxEnv(Env):

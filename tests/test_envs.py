@@ -193,7 +193,8 @@ def test_line_search_cap_changes_nothing_with_the_limits_active(name):
     """`envs.mjx_env.LS_ITERATIONS` against MuJoCo's default cap of 50: 8 envs pushed by full
     actions (switching sign every 25 steps) into the slider limit, 200 steps without resets;
     the constraint forces are non-zero on many steps, and every state is the same bit for
-    bit."""
+    bit. A cap of 1 changes them: these trajectories do need more than one line-search
+    iteration, so the equality is not vacuous."""
     from envs._mjx import mjx
     from envs.mjx_env import LS_ITERATIONS
 
@@ -210,11 +211,15 @@ def test_line_search_cap_changes_nothing_with_the_limits_active(name):
 
         return jax.device_get(jax.jit(jax.vmap(run))(jax.random.split(jax.random.key(1), 8)))
 
-    capped, default = envs.make(name), envs.make(name)
-    assert capped.mj_model.opt.ls_iterations == LS_ITERATIONS < 50
-    default.mj_model.opt.ls_iterations = 50
-    default.mjx_model = mjx.put_model(default.mj_model)
-    ours, theirs = rollout(capped), rollout(default)
+    def capped_at(cap):
+        env = envs.make(name)
+        env.mj_model.opt.ls_iterations = cap
+        env.mjx_model = mjx.put_model(env.mj_model)
+        return rollout(env)
+
+    assert envs.make(name).mj_model.opt.ls_iterations == LS_ITERATIONS < 50
+    ours, default = rollout(envs.make(name)), capped_at(50)
     assert np.sum(np.abs(ours[2]).max(axis=-1) > 0) > 100  # steps with a limit active
-    for a, b in zip(ours, theirs):
+    for a, b in zip(ours, default):
         np.testing.assert_array_equal(a, b)
+    assert np.any(capped_at(1)[2] != default[2])
