@@ -1,13 +1,15 @@
 """Running a configuration from the host: compile once, train all seeds in one program, follow
 progress, check that the state stays finite, stop cleanly on request, and resume.
 
-The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`) from `sac_jax.train.make_train_parts`:
-a scan over a fixed number of iterations that evaluates where an evaluation period ends. The
-host calls it repeatedly (donating the state, so the replay buffers are updated in place), and
-between calls reads the evaluation points, checks for non-finite parameters and polls
-`should_stop`. The program holds no host callback, so JAX's persistent compilation cache keeps
-it. Because each chunk is a pure function of the state, a run stopped at a chunk boundary and
-resumed from that state ends exactly where the uninterrupted run does.
+The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`; for one seed, `chunk` itself with the
+seed axis taken off and put back, `sac_jax.parallel.over_seed_axis`) from
+`sac_jax.train.make_train_parts`: a scan over a fixed number of iterations that evaluates where
+an evaluation period ends. The host calls it repeatedly (donating the state, so the replay
+buffers are updated in place), and between calls reads the evaluation points, checks for
+non-finite parameters and polls `should_stop`. The program holds no host callback, so JAX's
+persistent compilation cache keeps it. Because each chunk is a pure function of the state, a run
+stopped at a chunk boundary and resumed from that state ends exactly where the uninterrupted run
+does.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import numpy as np
 
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
-from sac_jax.parallel import seeds_program
+from sac_jax.parallel import over_seed_axis, seeds_program
 from sac_jax.program_cache import cached_compile
 from sac_jax.presets import SOLVED_RETURN
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
@@ -102,7 +104,7 @@ def compiled_program(config: SACConfig, seeds: int):
             sharding = chunk.input_shardings[0][0]
         else:
             chunk = cached_compile(
-                jax.vmap(parts.chunk, in_axes=(SEED_AXES,), out_axes=SEED_AXES),
+                over_seed_axis(parts.chunk, seeds, (SEED_AXES,), SEED_AXES),
                 f"chunk {config!r}", [state], state, directory, donate_first=True,
                 compiler_options=options)
             sharding = jax.local_devices()[0]

@@ -86,6 +86,28 @@ def test_data_parallel_training_learns_pendulum():
     assert check["finite_params"]
 
 
+def test_one_seed_program_is_the_function_between_taking_and_restoring_the_seed_axis():
+    """`over_seed_axis` for one seed gives what `jax.vmap` gives (integer arithmetic, so no
+    rounding can differ): mapped parts keep their leading axis of 1, unmapped (None) parts stay
+    as they are; in_axes as one int or per argument."""
+    import jax.numpy as jnp
+
+    axes = {"x": 0, "count": None}
+    step = lambda state, k: ({"x": state["x"] * 2 + state["count"] + k,
+                              "count": state["count"] + 1}, k.sum())
+    state = {"x": jnp.arange(6).reshape(1, 2, 3), "count": jnp.int32(5)}
+    k = jnp.asarray([[1, 2, 3]])
+    for fn, in_axes, out_axes, args in [
+            (step, (axes, 0), (axes, 0), (state, k)),
+            (lambda k: {"x": k * 3, "count": jnp.int32(0)}, 0, axes, (k,))]:
+        one = jax.jit(parallel.over_seed_axis(fn, 1, in_axes, out_axes))(*args)
+        vmapped = jax.jit(jax.vmap(fn, in_axes, out_axes))(*args)
+        assert jax.tree_util.tree_structure(one) == jax.tree_util.tree_structure(vmapped)
+        for a, b in zip(jax.tree_util.tree_leaves(one), jax.tree_util.tree_leaves(vmapped)):
+            assert a.shape == b.shape and a.dtype == b.dtype
+            np.testing.assert_array_equal(a, b)
+
+
 def test_local_config_divides_the_sizes_and_keeps_the_schedule():
     config = PRESETS["fast"]
     local = parallel.local_config(config, 4)
