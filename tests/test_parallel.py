@@ -2,11 +2,13 @@
 be set before JAX is imported; tests/parallel_checks.py measures, the tests here judge):
 a data-parallel update equals the single-device update on the same global batch and noise, and
 fails to without the averaging; seeds sharded over devices equal the unsharded vmap; a
-one-device mesh reproduces `make_train`; a data-parallel run learns Pendulum-v1."""
+one-device mesh reproduces `make_train`; a data-parallel run learns Pendulum-v1. Without
+devices: the one-seed program gives what the vmap gives; configs and meshes are checked."""
 
 import os
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -90,8 +92,6 @@ def test_one_seed_program_is_the_function_between_taking_and_restoring_the_seed_
     """`over_seed_axis` for one seed gives what `jax.vmap` gives (integer arithmetic, so no
     rounding can differ): mapped parts keep their leading axis of 1, unmapped (None) parts stay
     as they are; in_axes as one int or per argument."""
-    import jax.numpy as jnp
-
     axes = {"x": 0, "count": None}
     step = lambda state, k: ({"x": state["x"] * 2 + state["count"] + k,
                               "count": state["count"] + 1}, k.sum())
