@@ -14,5 +14,8 @@ with contextlib.redirect_stdout(io.StringIO()):
     # project pins mujoco-mjx, so these private names are stable for it.
     from mujoco.mjx._src import forward as mjx_forward
     from mujoco.mjx._src import scan as mjx_scan
+    # and by the forward dynamics that skip an idle constraint solver (envs.idle_solver)
+    from mujoco.mjx._src import sensor as mjx_sensor
+    from mujoco.mjx._src import solver as mjx_solver
 
-__all__ = ["mjx", "mjx_forward", "mjx_scan"]
+__all__ = ["mjx", "mjx_forward", "mjx_scan", "mjx_sensor", "mjx_solver"]

@@ -4,8 +4,8 @@ Every environment compiles exactly one function here: a jitted reset + ``lax.sca
 rollout of T = 300 closed-loop steps (see tests/_env_reference.py), reused by all tests.
 
 Measured float32 agreement with Gymnasium (seed 0, CPU), max |Δobs| over the first 100
-steps / the whole episode: 5.8e-7 / 5.8e-7 (InvertedPendulum-v5 and -v4, 253 steps),
-5.4e-7 / 5.4e-7 (Bullet), 3.0e-6 / 3.0e-6 (InvertedDoublePendulum-v5, 254 steps),
+steps / the whole episode: 3.9e-7 / 4.3e-7 (InvertedPendulum-v5 and -v4, 253 steps),
+5.4e-7 / 5.4e-7 (Bullet), 4.7e-6 / 4.7e-6 (InvertedDoublePendulum-v5, 254 steps),
 1.6e-6 / 1.0e-5 (Pendulum-v1, 200 steps, float32 vs float64 arithmetic); the
 terminated/truncated flags agree exactly.  Asserted: 1e-4 on observations over the first
 100 steps, 1e-3 over the episode, rewards to 1e-5 relative, identical flags.
