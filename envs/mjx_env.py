@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from envs._mjx import mjx, mjx_forward, mjx_scan
-from envs.idle_solver import forward
+from envs import idle_solver
 from envs.types import Env
 
 
@@ -99,7 +99,7 @@ class MjxEnv(Env):
             kqpos = mjx_scan.flat(m, integrate, "jqv", "q", m.jnt_type, d0.qpos, a_s * d.qvel)
             d = d.replace(qpos=kqpos, qvel=d0.qvel + a_s * d.qacc * dt,
                           act=d0.act + a_s * d.act_dot * dt, time=d0.time + a_s * dt)
-            d = forward(m, d)
+            d = idle_solver.forward(m, d)
             return (qvel_sum + b_s * d.qvel, qacc_sum + b_s * d.qacc,
                     act_dot_sum + b_s * d.act_dot, d), None
 
