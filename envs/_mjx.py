@@ -14,8 +14,9 @@ with contextlib.redirect_stdout(io.StringIO()):
     # project pins mujoco-mjx, so these private names are stable for it.
     from mujoco.mjx._src import forward as mjx_forward
     from mujoco.mjx._src import scan as mjx_scan
-    # and by the forward dynamics that skip an idle constraint solver (envs.idle_solver)
+    # and by the forward dynamics with the active-set constraint solver (envs.active_set_solver)
     from mujoco.mjx._src import sensor as mjx_sensor
     from mujoco.mjx._src import solver as mjx_solver
+    from mujoco.mjx._src import support as mjx_support
 
-__all__ = ["mjx", "mjx_forward", "mjx_scan", "mjx_sensor", "mjx_solver"]
+__all__ = ["mjx", "mjx_forward", "mjx_scan", "mjx_sensor", "mjx_solver", "mjx_support"]

@@ -12,20 +12,8 @@ import mujoco
 import numpy as np
 
 from envs._mjx import mjx, mjx_forward, mjx_scan
-from envs import idle_solver
+from envs import active_set_solver
 from envs.types import Env
-
-
-LS_ITERATIONS = 3
-"""Cap on the constraint solver's line-search iterations (MuJoCo's default cap: 50).
-
-MJX runs its line search as a scan over the cap, each step a `lax.cond` that is a no-op once
-the search has converged; under `vmap` that cond computes its step anyway, and on a GPU each
-scan step is a sequential launch, so the cap, not the iterations needed, sets the cost. C
-MuJoCo and MJX both stop at convergence, so a cap that is never reached changes nothing: on
-these models the search converges in at most 2 iterations, also with the joint limits active,
-and 3 leaves one spare (tests/test_envs.py checks cap 3 against cap 50, bit for bit, on
-trajectories pushed into the limits, and that cap 1 does change them)."""
 
 
 class MjxEnv(Env):
@@ -46,7 +34,10 @@ class MjxEnv(Env):
         max_episode_steps: int,
     ):
         self.mj_model = mujoco.MjModel.from_xml_string(xml)
-        self.mj_model.opt.ls_iterations = min(self.mj_model.opt.ls_iterations, LS_ITERATIONS)
+        # MuJoCo's sparse inertia: the same M, factored by MJX in plain array operations
+        # rather than a batched LAPACK Cholesky, which a GPU runs as several launches per
+        # call (BENCHMARKS.md: an H100 steps 8 pendulums in 0.42 ms instead of 0.72 ms).
+        self.mj_model.opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE
         self.mjx_model = mjx.put_model(self.mj_model)
         self._frame_skip = int(frame_skip)
         super().__init__(
@@ -61,7 +52,7 @@ class MjxEnv(Env):
     def _data_at(self, qpos: jax.Array, qvel: jax.Array, forward: bool = True) -> mjx.Data:
         """``mjx.Data`` at qpos (nq,), qvel (nv,) with ctrl 0.
 
-        With ``forward`` the derived fields come from ``mjx.forward``, as after Gymnasium's
+        With ``forward`` the derived fields come from a forward pass, as after Gymnasium's
         ``set_state`` (which calls ``mj_forward``), for observations that read site positions
         or constraint forces. Without it they stay zero until the first step recomputes them:
         cheaper to compile where the observation is (qpos, qvel) alone.
@@ -69,12 +60,12 @@ class MjxEnv(Env):
         data = mjx.make_data(self.mjx_model)
         dtype = data.qpos.dtype
         data = data.replace(qpos=qpos.astype(dtype), qvel=qvel.astype(dtype))
-        return mjx.forward(self.mjx_model, data) if forward else data
+        return active_set_solver.forward(self.mjx_model, data) if forward else data
 
     def _rk4(self, d0: mjx.Data) -> mjx.Data:
         """One MuJoCo RK4 step, numerically ``mjx.step``'s with integrator RK4 and
-        `envs.idle_solver.forward` as its forward (which skips the constraint solver for a
-        batch with no constraint active).
+        `envs.active_set_solver.forward` as its forward (which solves the constraint problem
+        of these small models exactly, without MJX's solver iterations).
 
         ``mjx.step`` traces ``mjx.forward`` four times (once, then inside a scan unrolled 3x);
         here the four stages k_s, s = 0..3, run in one scan with a single traced forward:
@@ -99,7 +90,7 @@ class MjxEnv(Env):
             kqpos = mjx_scan.flat(m, integrate, "jqv", "q", m.jnt_type, d0.qpos, a_s * d.qvel)
             d = d.replace(qpos=kqpos, qvel=d0.qvel + a_s * d.qacc * dt,
                           act=d0.act + a_s * d.act_dot * dt, time=d0.time + a_s * dt)
-            d = idle_solver.forward(m, d)
+            d = active_set_solver.forward(m, d)
             return (qvel_sum + b_s * d.qvel, qacc_sum + b_s * d.qacc,
                     act_dot_sum + b_s * d.act_dot, d), None
 

@@ -4,8 +4,8 @@ Every environment compiles exactly one function here: a jitted reset + ``lax.sca
 rollout of T = 300 closed-loop steps (see tests/_env_reference.py), reused by all tests.
 
 Measured float32 agreement with Gymnasium (seed 0, CPU), max |Δobs| over the first 100
-steps / the whole episode: 3.9e-7 / 4.3e-7 (InvertedPendulum-v5 and -v4, 253 steps),
-5.4e-7 / 5.4e-7 (Bullet), 4.7e-6 / 4.7e-6 (InvertedDoublePendulum-v5, 254 steps),
+steps / the whole episode: 5.8e-7 / 8.2e-7 (InvertedPendulum-v5 and -v4, 253 steps),
+5.7e-7 / 8.1e-7 (Bullet), 3.1e-6 / 3.1e-6 (InvertedDoublePendulum-v5, 254 steps),
 1.6e-6 / 1.0e-5 (Pendulum-v1, 200 steps, float32 vs float64 arithmetic); the
 terminated/truncated flags agree exactly.  Asserted: 1e-4 on observations over the first
 100 steps, 1e-3 over the episode, rewards to 1e-5 relative, identical flags.
@@ -186,40 +186,3 @@ def test_import_prints_nothing():
         [sys.executable, "-c", "import envs"], capture_output=True, text=True, check=True
     )
     assert out.stdout == ""
-
-
-@pytest.mark.parametrize("name", ["InvertedPendulum-v5", "InvertedDoublePendulum-v5"])
-def test_line_search_cap_changes_nothing_with_the_limits_active(name):
-    """`envs.mjx_env.LS_ITERATIONS` against MuJoCo's default cap of 50: 8 envs pushed by full
-    actions (switching sign every 25 steps) into the slider limit, 200 steps without resets;
-    the constraint forces are non-zero on many steps, and every state is the same bit for
-    bit. A cap of 1 changes them: these trajectories do need more than one line-search
-    iteration, so the equality is not vacuous."""
-    from envs._mjx import mjx
-    from envs.mjx_env import LS_ITERATIONS
-
-    def rollout(env):
-        def run(key):
-            state = env.reset(key)
-
-            def step(state, i):
-                push = jnp.where(i % 40 < 25, 1.0, -1.0) * jnp.asarray(env.action_high)
-                state = env.step(state, push)
-                return state, (state.data.qpos, state.data.qvel, state.data.qfrc_constraint)
-
-            return jax.lax.scan(step, state, jnp.arange(200))[1]
-
-        return jax.device_get(jax.jit(jax.vmap(run))(jax.random.split(jax.random.key(1), 8)))
-
-    def capped_at(cap):
-        env = envs.make(name)
-        env.mj_model.opt.ls_iterations = cap
-        env.mjx_model = mjx.put_model(env.mj_model)
-        return rollout(env)
-
-    assert envs.make(name).mj_model.opt.ls_iterations == LS_ITERATIONS < 50
-    ours, default = rollout(envs.make(name)), capped_at(50)
-    assert np.sum(np.abs(ours[2]).max(axis=-1) > 0) > 100  # steps with a limit active
-    for a, b in zip(ours, default):
-        np.testing.assert_array_equal(a, b)
-    assert np.any(capped_at(1)[2] != default[2])

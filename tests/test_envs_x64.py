@@ -6,7 +6,7 @@ InvertedPendulum-v5 (v4 and Bullet share its model), InvertedDoublePendulum-v5 a
 Pendulum-v1, with the closed-loop inputs of tests/_env_reference.py.
 
 Measured max |Δ(q, q̇)| between our float64 physics state and Gymnasium's over the whole
-episode (CPU, seed 0): 1.1e-15 (InvertedPendulum-v5, 253 steps), 8.4e-15
+episode (CPU, seed 0): 1.1e-15 (InvertedPendulum-v5, 253 steps), 5.1e-15
 (InvertedDoublePendulum-v5, 254 steps), 3.9e-13 (Pendulum-v1, 200 steps; θ is
 unnormalised and grows to tens of radians); compare 1e-7 .. 1e-5 in float32.
 Asserted: 1e-10.  Observations are float32 by contract, so they agree to float32
