@@ -101,6 +101,8 @@ def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
     buffer fills its slots in order from slot 0 and the rest stay zero, so only the filled
     slots [0, size) of the replay buffers are stored (the seeds train in lock-step: one size)."""
     filled = int(np.max(jax.device_get(runner.buffer.size)))
+    # cut on the host: on the device, a slice of a new length compiles a new program each time
+    runner = runner.replace(buffer=jax.device_get(runner.buffer))
     checkpoint.save(os.path.join(run_dir, CHECKPOINT), _buffer_filled_to(runner, filled),
                     {"position": position, "buffer_filled": filled})
 
