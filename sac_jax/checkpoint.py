@@ -30,14 +30,21 @@ def _is_key(leaf) -> bool:
     return jax.dtypes.issubdtype(leaf.dtype, jax.dtypes.prng_key)
 
 
+def to_host(tree: Any) -> list:
+    """The leaves `save` stores, as numpy arrays of their own (copies, so that a device buffer
+    donated later cannot change them): PRNG keys as their key data. `save(path, to_host(tree),
+    meta)` writes the same file as `save(path, tree, meta)`."""
+    leaves = jax.device_get([jax.random.key_data(x) if _is_key(x) else x
+                             for x in jax.tree_util.tree_leaves(tree)])
+    return [np.array(x) for x in leaves]
+
+
 def save(path: str, tree: Any, meta: dict) -> None:
     """Writes `tree` and `meta` to `path` atomically (temporary file in the same directory, then
     `os.replace`): however the process is stopped, `path` holds either the previous checkpoint or
     this one. (No fsync: this guards against stopped processes, not against power loss.)"""
-    leaves = jax.device_get([jax.random.key_data(x) if _is_key(x) else x
-                             for x in jax.tree_util.tree_leaves(tree)])
     payload = {"format": FORMAT, "meta": meta,
-               "leaves": {str(i): np.asarray(x) for i, x in enumerate(leaves)}}
+               "leaves": {str(i): x for i, x in enumerate(to_host(tree))}}
     tmp = f"{path}.tmp-{os.getpid()}"
     try:
         with open(tmp, "wb") as f:

@@ -184,15 +184,16 @@ def main(argv=None) -> int:
 
     stop = _StopRequest()
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
+    checkpoints = run_dir.CheckpointWriter(out)
     try:
         result = run_training(
             config, seeds=seeds, seed=info["seed"], resume=resume, on_point=on_point,
-            on_checkpoint=lambda state, position: run_dir.save_checkpoint(out, state, position),
-            should_stop=lambda: stop.signal is not None)
+            on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None)
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
         tensorboard.close()
+        checkpoints.close()
     _write_results(out, config, info, result)
     s = result.summary
     if result.status == FINISHED:

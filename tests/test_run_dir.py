@@ -1,6 +1,6 @@
 """sac_jax.run_dir checkpoints: the whole state comes back bit for bit, only the filled replay
-slots are stored, saving at a new fill level compiles nothing, and a checkpoint whose metadata
-does not fit is refused."""
+slots are stored, saving at a new fill level compiles nothing, the background writer stores
+the state as it was when asked, and a checkpoint whose metadata does not fit is refused."""
 
 import logging
 import os
@@ -67,6 +67,32 @@ def test_saving_at_new_fill_levels_compiles_nothing(run, tmp_path, caplog):
             run_dir.save_checkpoint(str(tmp_path), runner.replace(
                 buffer=runner.buffer.replace(size=size)), {"chunks_done": 1})
     assert not [r.getMessage() for r in caplog.records if "ompil" in r.getMessage()]
+
+
+def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path):
+    """The device buffers are deleted (as the next chunk's donation does) and the position
+    changed right after `save`: the file still holds the state and position of the call,
+    byte for byte what `save_checkpoint` writes."""
+    _, saved = run
+    (tmp_path / "writer").mkdir(), (tmp_path / "direct").mkdir()
+    run_dir.save_checkpoint(str(tmp_path / "direct"), saved, {"chunks_done": 3})
+    runner = jax.tree_util.tree_map(lambda x: jax.device_put(x).copy(), saved)  # its own buffers
+    position = {"chunks_done": 3}
+    writer = run_dir.CheckpointWriter(str(tmp_path / "writer"))
+    writer.save(runner, position)
+    for leaf in jax.tree_util.tree_leaves(runner):
+        leaf.delete()
+    position["chunks_done"] = 4
+    writer.close()
+    written, direct = (tmp_path / name / run_dir.CHECKPOINT for name in ("writer", "direct"))
+    assert written.read_bytes() == direct.read_bytes()
+
+
+def test_background_writer_reraises_a_failed_write(run, tmp_path):
+    writer = run_dir.CheckpointWriter(str(tmp_path / "missing"))
+    writer.save(run[1], {"chunks_done": 3})
+    with pytest.raises(FileNotFoundError, match="missing"):
+        writer.close()
 
 
 @pytest.mark.parametrize("filled", [4001, -1, "40", None])
