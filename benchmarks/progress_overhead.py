@@ -6,8 +6,8 @@ times each (compile time excluded from all):
     single scan   the pure `make_train` program: one `lax.scan`, nothing reported until it ends
     chunks        `sac_jax.run.run_training` driven chunk by chunk with nothing attached
     followed      the same, writing TensorBoard scalars at every evaluation point and a
-                  checkpoint (the whole state, replay buffers included) after it, as
-                  `scripts/train.py` does (which also prints one line per point)
+                  checkpoint (the whole state, replay buffers included, written on a
+                  background thread) after it, as `scripts/train.py` does (which also prints one line per point)
 Each figure is the median over the repeats; the overheads are medians of the ratios of runs
 made back to back (the machine's speed drifts between repeats). `followed_host_pct` is the
 direct measure: the share of the followed run's time that the host spends between chunks
@@ -65,12 +65,13 @@ def main():
             returns["chunks"] = result.metrics["eval_return"]
             out = os.path.join(tmp, f"run{r}")
             run_dir.create(out, config, args.preset, args.seeds, 0)
-            tensorboard = run_dir.TensorBoard(out)
+            tensorboard, checkpoints = run_dir.TensorBoard(out), run_dir.CheckpointWriter(out)
             result = run_training(
                 config, seeds=args.seeds,
                 on_point=lambda step, means, returns, _: tensorboard.add_point(step, means, returns),
-                on_checkpoint=lambda state, position: run_dir.save_checkpoint(out, state, position))
+                on_checkpoint=checkpoints.save)
             tensorboard.close()
+            checkpoints.close()
             times["followed"].append(result.summary["run_s"])
             host.append(result.summary["host_s"] / result.summary["run_s"])
             returns["followed"] = result.metrics["eval_return"]
