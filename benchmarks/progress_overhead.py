@@ -7,7 +7,8 @@ times each (compile time excluded from all):
     chunks        `sac_jax.run.run_training` driven chunk by chunk with nothing attached
     followed      the same, writing TensorBoard scalars at every evaluation point and a
                   checkpoint (the whole state, replay buffers included, written on a
-                  background thread) after it, as `scripts/train.py` does (which also prints one line per point)
+                  background thread) after it, as `scripts/train.py` does (which also
+                  prints one line per point)
 Each figure is the median over the repeats; the overheads are medians of the ratios of runs
 made back to back (the machine's speed drifts between repeats). `followed_host_pct` is the
 direct measure: the share of the followed run's time that the host spends between chunks

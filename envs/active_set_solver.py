@@ -98,24 +98,24 @@ def solve(m: mjx.Model, d: mjx.Data) -> mjx.Data:
     """
     impl = d._impl
     nv, nefc, ne = d.qacc.shape[0], impl.nefc, impl.ne
-    mass = mjx_support.full_m(m, d)
+    full = mjx_support.full_m(m, d)  # M, (nv, nv)
     jac = [[impl.efc_J[r, i] for i in range(nv)] for r in range(nefc)]
     aref = [impl.efc_aref[r] for r in range(nefc)]
     stiff = [impl.efc_D[r] for r in range(nefc)]
-    m_ = [[mass[i, j] for j in range(nv)] for i in range(nv)]
+    mass = [[full[i, j] for j in range(nv)] for i in range(nv)]
     a0 = [d.qacc_smooth[i] for i in range(nv)]
     f0 = [d.qfrc_smooth[i] for i in range(nv)]
 
     best = None
     for free in itertools.product((False, True), repeat=nefc - ne):
         rows = [r for r, on in enumerate((True,) * ne + free) if on]
-        h = [[m_[i][j] + sum(stiff[r] * jac[r][i] * jac[r][j] for r in rows) for j in range(nv)]
+        h = [[mass[i][j] + sum(stiff[r] * jac[r][i] * jac[r][j] for r in rows) for j in range(nv)]
              for i in range(nv)]
         b = [f0[i] + sum(stiff[r] * aref[r] * jac[r][i] for r in rows) for i in range(nv)]
         qacc = cholesky_solve(h, b)  # a_S of (1)
         jaref = [sum(jac[r][i] * qacc[i] for i in range(nv)) - aref[r] for r in range(nefc)]
         active = [jnp.bool_(r < ne) | (jaref[r] < 0) for r in range(nefc)]
-        cost = 0.5 * sum((sum(m_[i][j] * qacc[j] for j in range(nv)) - f0[i]) * (qacc[i] - a0[i])
+        cost = 0.5 * sum((sum(mass[i][j] * qacc[j] for j in range(nv)) - f0[i]) * (qacc[i] - a0[i])
                          for i in range(nv))  # f(a_S): MJX's Gauss term, then the rows'
         cost += 0.5 * sum(jnp.where(active[r], stiff[r] * jaref[r] ** 2, 0.0) for r in range(nefc))
         force = [jnp.where(active[r], -stiff[r] * jaref[r], 0.0) for r in range(nefc)]
