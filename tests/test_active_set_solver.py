@@ -8,7 +8,7 @@ model's constraint rows are active alone, together and not at all. Asserted:
   float32: within 1e-5 relative of C MuJoCo's and of MJX's own solver (measured: at most
       7e-6 and 5e-6; MJX's own solver is up to 8e-6 from C);
   a float64 rollout pushed into the limits (forces on most steps) follows C MuJoCo's
-      `mj_step` to 1e-9 (measured 1e-10 and 3e-11, from 2e-15 before the first impact);
+      `mj_step` to 1e-9 (measured 1e-10 and 6e-12, from 2e-15 before the first impact);
   a model the enumeration does not cover (friction loss) gets MJX's solver, bit for bit;
   vmapped, the forward pass has no loop or branch left (MJX's solver: a while loop);
   `cholesky_solve` equals `numpy.linalg.solve`.
