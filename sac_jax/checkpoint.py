@@ -30,13 +30,17 @@ def _is_key(leaf) -> bool:
     return jax.dtypes.issubdtype(leaf.dtype, jax.dtypes.prng_key)
 
 
+def _stored_leaves(tree: Any) -> list:
+    """The leaves of `tree` as `save` stores them, on the host: PRNG keys as their key data."""
+    return jax.device_get([jax.random.key_data(x) if _is_key(x) else x
+                           for x in jax.tree_util.tree_leaves(tree)])
+
+
 def to_host(tree: Any) -> list:
-    """The leaves `save` stores, as numpy arrays of their own (copies, so that a device buffer
-    donated later cannot change them): PRNG keys as their key data. `save(path, to_host(tree),
-    meta)` writes the same file as `save(path, tree, meta)`."""
-    leaves = jax.device_get([jax.random.key_data(x) if _is_key(x) else x
-                             for x in jax.tree_util.tree_leaves(tree)])
-    return [np.array(x) for x in leaves]
+    """`_stored_leaves` as numpy arrays of their own (copies: on a CPU a fetched array may share
+    memory with a device buffer that a later donation reuses). `save(path, to_host(tree), meta)`
+    writes the same file as `save(path, tree, meta)`."""
+    return [np.array(x) for x in _stored_leaves(tree)]
 
 
 def save(path: str, tree: Any, meta: dict) -> None:
@@ -44,7 +48,7 @@ def save(path: str, tree: Any, meta: dict) -> None:
     `os.replace`): however the process is stopped, `path` holds either the previous checkpoint or
     this one. (No fsync: this guards against stopped processes, not against power loss.)"""
     payload = {"format": FORMAT, "meta": meta,
-               "leaves": {str(i): x for i, x in enumerate(to_host(tree))}}
+               "leaves": {str(i): np.asarray(x) for i, x in enumerate(_stored_leaves(tree))}}
     tmp = f"{path}.tmp-{os.getpid()}"
     try:
         with open(tmp, "wb") as f:
