@@ -63,18 +63,17 @@ def solved_at(eval_returns: np.ndarray, env_steps: np.ndarray, threshold: float)
     return int(env_steps[hits[0]]) if hits.size else None
 
 
-@jax.jit
-def _finite_leaves(tree):
+def _finite_flags(tree):
     """Per leaf, per seed: whether every entry is finite. Leaves (seeds, ...) -> (seeds,)."""
     return jax.tree_util.tree_map(
         lambda x: jnp.all(jnp.isfinite(x), axis=tuple(range(1, x.ndim))), tree)
 
 
-def first_non_finite(sac_state) -> Optional[str]:
-    """'<quantity> of seed <s>' for the first parameter, optimiser or temperature array of the
-    vmapped `SACState` holding a NaN or an infinity; None if all are finite."""
-    flags = jax.device_get(_finite_leaves(sac_state))
-    for path, ok in jax.tree_util.tree_flatten_with_path(flags)[0]:
+def first_non_finite(flags) -> Optional[str]:
+    """'<quantity> of seed <s>' for the first parameter, optimiser or temperature array of a
+    vmapped `SACState` holding a NaN or an infinity, from its `_finite_flags`; None if all are
+    finite."""
+    for path, ok in jax.tree_util.tree_flatten_with_path(jax.device_get(flags))[0]:
         if not np.all(ok):
             name = jax.tree_util.keystr(path, simple=True, separator="/")
             return f"{name} of seed {int(np.argmin(ok))}"
@@ -83,9 +82,10 @@ def first_non_finite(sac_state) -> Optional[str]:
 
 @functools.lru_cache(maxsize=4)
 def compiled_program(config: SACConfig, seeds: int):
-    """(parts, compiled vmapped init, compiled vmapped chunk, the state's sharding) for `seeds`
-    seeds of `config`, the seeds split over the local devices when there are several and they
-    divide `seeds` (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later runs
+    """(parts, compiled vmapped init, compiled vmapped chunk, compiled `_finite_flags` of the
+    state's `SACState`, the state's sharding) for `seeds` seeds of `config`, the seeds split
+    over the local devices when there are several and they divide `seeds`
+    (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later runs
     of the same shapes in this process neither trace nor compile again; other processes find
     the compiled programs in the persistent compilation cache and, on one device, the traced
     chunk in `sac_jax.program_cache`."""
@@ -95,9 +95,11 @@ def compiled_program(config: SACConfig, seeds: int):
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES).lower(keys)
     state = init.out_info
     directory = program_directory()
-    # XLA compiles without Python's lock: init compiles while the chunk is traced
-    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+    # XLA compiles without Python's lock: init and the check compile while the chunk is traced
+    # (compiled at the first chunk's end instead, the check cost a run 0.36 s on the CPU)
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
         init = pool.submit(init.compile, compiler_options=options)
+        finite = pool.submit(jax.jit(_finite_flags).lower(state.sac).compile)
         if directory is None or len(jax.local_devices()) > 1:
             chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
             chunk = chunk.lower(state).compile(compiler_options=options)
@@ -108,7 +110,7 @@ def compiled_program(config: SACConfig, seeds: int):
                 f"chunk {config!r}", [state], state, directory, donate_first=True,
                 compiler_options=options)
             sharding = jax.local_devices()[0]
-        return parts, init.result(), chunk, sharding
+        return parts, init.result(), chunk, finite.result(), sharding
 
 
 def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
@@ -130,7 +132,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     """
     threshold = SOLVED_RETURN.get(config.env)
     t0 = time.perf_counter()
-    parts, init, chunk, sharding = compiled_program(config, seeds)
+    parts, init, chunk, finite, sharding = compiled_program(config, seeds)
     if resume is None:
         runner = init(jax.random.split(jax.random.key(seed), seeds))
         position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
@@ -155,7 +157,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         new_points = points_done(runner)
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position["run_s"] = host_start - start
-        bad = first_non_finite(runner.sac)
+        bad = first_non_finite(finite(runner.sac))
         if bad is not None:
             steps = int(runner.iteration) * config.num_envs
             status, message = NON_FINITE, f"non-finite {bad} at environment step {steps}"

@@ -1,0 +1,36 @@
+"""sac_jax.run: once `compiled_program` has compiled a configuration, a run compiles nothing
+more between its chunks (the finiteness check included), and a non-finite state is named by
+quantity and seed."""
+
+import logging
+
+import jax
+import jax.numpy as jnp
+
+import sac_jax
+from sac_jax import run
+
+# shapes of its own (hidden 24), so no other test in the process has compiled this check
+CONFIG = sac_jax.PRESETS["pendulum"].replace(
+    total_steps=768, learning_starts=256, eval_every=256, batch_size=32, num_envs=2,
+    actor_hidden=(24, 24), critic_hidden=(24, 24), eval_episodes=1)
+
+
+def test_a_run_compiles_nothing_between_its_chunks(caplog):
+    """The finiteness check after each chunk was compiled at the first chunk's end: 0.36 s of
+    the run on the CPU, while the device waited."""
+    run.compiled_program(CONFIG, 2)
+    with jax.log_compiles(True), caplog.at_level(logging.WARNING):
+        result = run.run_training(CONFIG, seeds=2)
+    assert result.status == run.FINISHED and result.points == CONFIG.num_evals
+    compiled = [r.getMessage() for r in caplog.records if "ompil" in r.getMessage()]
+    # only the split of the seeds' keys, before the clock of the run starts
+    assert all("split" in m for m in compiled), compiled
+
+
+def test_the_first_non_finite_array_is_named_with_its_seed():
+    _, init, _, finite, _ = run.compiled_program(CONFIG, 2)
+    sac = init(jax.random.split(jax.random.key(0), 2)).sac
+    assert run.first_non_finite(finite(sac)) is None
+    bad = sac.replace(log_alpha=sac.log_alpha.at[1].set(jnp.nan))
+    assert run.first_non_finite(finite(bad)) == "log_alpha of seed 1"
