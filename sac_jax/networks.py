@@ -64,7 +64,10 @@ class CriticEnsemble(nn.Module):
     """Q_1..Q_N(s, a): N independent MLPs on concat(s, a), evaluated as one batched computation.
 
     Parameters carry a leading axis N (one `nn.vmap` over the critic MLP), so the N critics run as
-    one batched matmul per layer. Returns Q of shape (N, ...) for inputs (..., O) and (..., A).
+    one batched matmul per layer. The input is broadcast to (N, ..., O + A) first: with a shared
+    input the first product comes out (..., N, 64) and XLA transposes it to (N, ..., 64), an
+    extra pass over the activations (H100, 256 vmapped seeds of `fast`: BENCHMARKS.md).
+    Returns Q of shape (N, ...) for inputs (..., O) and (..., A).
     """
 
     hidden_sizes: Sequence[int]
@@ -78,12 +81,13 @@ class CriticEnsemble(nn.Module):
             MLP,
             variable_axes={"params": 0},
             split_rngs={"params": True},
-            in_axes=None,
+            in_axes=0,
             out_axes=0,
             axis_size=self.num_critics,
         )
+        x = jnp.concatenate([obs, action], axis=-1)
         q = ensemble(tuple(self.hidden_sizes) + (1,), self.initializer, self.last_layer_init,
-                     name="critics")(jnp.concatenate([obs, action], axis=-1))
+                     name="critics")(jnp.broadcast_to(x, (self.num_critics,) + x.shape))
         return q[..., 0]
 
 
