@@ -64,9 +64,10 @@ class CriticEnsemble(nn.Module):
     """Q_1..Q_N(s, a): N independent MLPs on concat(s, a), evaluated as one batched computation.
 
     Parameters carry a leading axis N (one `nn.vmap` over the critic MLP), so the N critics run as
-    one batched matmul per layer. The input is broadcast to (N, ..., O + A) first: with a shared
-    input the first product comes out (..., N, 64) and XLA transposes it to (N, ..., 64), an
-    extra pass over the activations (H100, 256 vmapped seeds of `fast`: BENCHMARKS.md).
+    one batched matmul per layer. The input is broadcast to (N, ..., O + A) first: from a shared
+    input the first product comes out (..., N, H) for width H, and XLA transposes it to
+    (N, ..., H), an extra pass over the activations (H100, 256 vmapped seeds of `fast`:
+    BENCHMARKS.md).
     Returns Q of shape (N, ...) for inputs (..., O) and (..., A).
     """
 
