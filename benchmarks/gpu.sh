@@ -4,7 +4,10 @@
 # .whl/ (see BENCHMARKS.md), brax and its imported needs too (brax, jaxopt, ml_collections,
 # orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
 # and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
-# Usage: bash benchmarks/gpu.sh env|updates|train|evaluation
+# Usage: bash benchmarks/gpu.sh env|evaluation
+#        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype bfloat16]
+#        bash benchmarks/gpu.sh train [scripts/train.py flags for every run, e.g.
+#          --hidden-dtype bfloat16]
 #        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
@@ -20,13 +23,14 @@ case "$mode" in
     python3 benchmarks/env_throughput.py --sizes 1024 16384 131072 --steps 200 --repeats 3 \
       --skip-baselines ;;
   updates)
-    python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 ;;
+    python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 "$@" ;;
   train)
     for seed in 0 1 2; do
       python3 scripts/train.py --seed "$seed" --cache-dir /tmp/jaxcache --out "/tmp/runs/1-$seed" \
-        2>&1 | tail -1
+        "$@" 2>&1 | tail -1
     done
-    python3 scripts/train.py --seeds 256 --cache-dir /tmp/jaxcache --out /tmp/runs/256 2>&1 | tail -1
+    python3 scripts/train.py --seeds 256 --cache-dir /tmp/jaxcache --out /tmp/runs/256 "$@" 2>&1 \
+      | tail -1
     python3 benchmarks/solve_times.py /tmp/runs/* ;;
   evaluation)
     python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1

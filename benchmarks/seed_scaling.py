@@ -1,7 +1,7 @@
 """Gradient updates/s of `sac_update` for many seeds vmapped in one program (the `fast` preset's
 networks and batch unless overridden), each seed sampling its own batches from its own buffer.
 
-    python benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200
+    python benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 [--hidden-dtype bfloat16]
 """
 
 from __future__ import annotations
@@ -65,10 +65,12 @@ def main():
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 16, 256, 1024])
     parser.add_argument("--updates", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--hidden-dtype", default="float32", help="SACConfig.hidden_dtype")
     args = parser.parse_args()
-    config = sac_jax.PRESETS[args.preset]
+    config = sac_jax.PRESETS[args.preset].replace(hidden_dtype=args.hidden_dtype)
     print(f"jax {jax.__version__} on {jax.devices()[0].device_kind}; preset {args.preset}: "
-          f"batch {config.batch_size}, actor {config.actor_hidden}, critic {config.critic_hidden}")
+          f"batch {config.batch_size}, actor {config.actor_hidden}, critic {config.critic_hidden}, "
+          f"hidden layers in {config.hidden_dtype}")
     print("| seeds | updates/s (all seeds) | updates/s per seed | compile + first run s |")
     print("| ---: | ---: | ---: | ---: |")
     for seeds in args.seeds:

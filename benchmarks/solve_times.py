@@ -5,7 +5,8 @@
 A seed has solved at its first evaluation whose return reaches the task's threshold
 (`summary.json`'s `solved_at_step`). For each run: the training seconds (`metrics.csv`'s
 `wall_s`, compile excluded) at which half of the seeds and all of them had solved, and at which
-the mean over seeds first reached the threshold (`solved_wall_s`), with compile and run times.
+the mean over seeds first reached the threshold (`solved_wall_s`), with compile and run times,
+and the training seconds of each evaluation period (`period_s`: the first covers the prefill).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ def solve_times(run_dir: str) -> dict:
         summary = json.load(f)
     with open(os.path.join(run_dir, "metrics.csv")) as f:
         wall_at = {int(row["env_steps"]): float(row["wall_s"]) for row in csv.DictReader(f)}
+    walls = [wall_at[step] for step in sorted(wall_at)]
     solved = [wall_at[step] for step in summary["solved_at_step"] if step is not None]
     seeds = summary["seeds"]
 
@@ -32,7 +34,8 @@ def solve_times(run_dir: str) -> dict:
 
     return {"seeds": seeds, "solved": len(solved), "half_solved_s": when(0.5),
             "all_solved_s": when(1.0), "mean_solved_s": summary["solved_wall_s"],
-            "compile_s": summary["compile_s"], "run_s": summary["run_s"]}
+            "compile_s": summary["compile_s"], "run_s": summary["run_s"],
+            "period_s": [round(b - a, 2) for a, b in zip([0.0] + walls, walls)]}
 
 
 if __name__ == "__main__":

@@ -136,6 +136,7 @@ def make_agent(config: SACConfig, observation_size: int, action_size: int,
     if not all(math.isfinite(l) and math.isfinite(h) and l < h for l, h in zip(low, high)):
         raise ValueError(f"action bounds must be finite with low < high, got low={low}, high={high}")
     c = config
+    hidden_dtype = jnp.bfloat16 if c.hidden_dtype == "bfloat16" else None
     return Agent(
         config=c,
         observation_size=int(observation_size),
@@ -146,11 +147,13 @@ def make_agent(config: SACConfig, observation_size: int, action_size: int,
                     last_layer_init=c.last_layer_init,
                     separate_log_std_network=c.separate_log_std_network,
                     log_std_mode=c.log_std_mode, log_std_min=c.log_std_min,
-                    log_std_max=c.log_std_max),
+                    log_std_max=c.log_std_max, hidden_dtype=hidden_dtype),
         critic=CriticEnsemble(hidden_sizes=c.critic_hidden, num_critics=c.num_critics,
-                              initializer=c.init, last_layer_init=c.last_layer_init),
+                              initializer=c.init, last_layer_init=c.last_layer_init,
+                              hidden_dtype=hidden_dtype),
         value=(ValueNetwork(hidden_sizes=c.critic_hidden, initializer=c.init,
-                            last_layer_init=c.last_layer_init) if c.variant == "v1" else None),
+                            last_layer_init=c.last_layer_init, hidden_dtype=hidden_dtype)
+               if c.variant == "v1" else None),
         actor_optimizer=adam(c.actor_lr),
         critic_optimizer=adam(c.critic_lr),
         value_optimizer=adam(c.value_lr),

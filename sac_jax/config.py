@@ -21,9 +21,10 @@ LogStdMode = Literal["clip", "tanh"]
 LogProbCorrection = Literal["exact", "epsilon"]
 AlphaLoss = Literal["alpha", "log_alpha"]
 AlphaLogProb = Literal["resample", "reuse"]
-VARIANTS, INITS, LOG_STD_MODES, LOG_PROB_CORRECTIONS, ALPHA_LOSSES, ALPHA_LOG_PROBS = (
-    typing.get_args(t) for t in (Variant, Init, LogStdMode, LogProbCorrection, AlphaLoss,
-                                 AlphaLogProb))
+HiddenDtype = Literal["float32", "bfloat16"]
+(VARIANTS, INITS, LOG_STD_MODES, LOG_PROB_CORRECTIONS, ALPHA_LOSSES, ALPHA_LOG_PROBS,
+ HIDDEN_DTYPES) = (typing.get_args(t) for t in (Variant, Init, LogStdMode, LogProbCorrection,
+                                                AlphaLoss, AlphaLogProb, HiddenDtype))
 UPDATE_ORDERS = {  # any order of the variant's updates
     "v2": set(itertools.permutations(("critic", "actor"))),
     "v1": set(itertools.permutations(("value", "actor", "critic"))),
@@ -127,6 +128,11 @@ class SACConfig:
     log_prob_correction: LogProbCorrection = "epsilon"
     """"exact": log|d a/d u| = log scale + 2(log 2 - u - softplus(-2u)); "epsilon":
     log(scale (1 - tanh(u)^2) + 1e-6) as the PyTorch seeds."""
+    hidden_dtype: HiddenDtype = "float32"
+    """"float32": the networks compute in their parameters' dtype (float32, or float64 with
+    jax_enable_x64). "bfloat16": the hidden layers' products and activations are bfloat16;
+    parameters, output layers, losses and optimisers stay float32. For many seeds on a GPU,
+    whose networks are bound by memory traffic (BENCHMARKS.md); not for equivalence checks."""
 
     # --- execution ---
     data_parallel_axis: Annotated[Optional[str], tyro.conf.Suppress] = None
@@ -159,6 +165,7 @@ class SACConfig:
         choice("log_prob_correction", LOG_PROB_CORRECTIONS)
         choice("alpha_loss", ALPHA_LOSSES)
         choice("alpha_log_prob", ALPHA_LOG_PROBS)
+        choice("hidden_dtype", HIDDEN_DTYPES)
         for field in ("num_envs", "total_steps", "buffer_size", "batch_size", "updates_per_step",
                       "eval_every", "eval_episodes", "target_update_period", "policy_frequency",
                       "num_critics"):

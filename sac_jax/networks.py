@@ -1,11 +1,17 @@
 """Flax networks of SAC: an MLP, the critic ensemble Q_1..Q_N, the value network V and the actor.
 
 Shapes: observations (..., O), actions (..., A); a batch dimension B is optional everywhere.
+
+Every network takes `hidden_dtype`: None computes every layer in the parameters' dtype;
+`jnp.bfloat16` computes the hidden layers' products, bias adds and ReLUs in bfloat16 while the
+parameters, the output layers (Q, V, mean, log std) and everything downstream stay in the
+parameters' dtype. Memory traffic, not arithmetic, bounds the networks of many vmapped seeds on
+a GPU, and bfloat16 halves it (`SACConfig.hidden_dtype`, BENCHMARKS.md).
 """
 
 from __future__ import annotations
 
-from typing import Callable, Optional, Sequence, Tuple
+from typing import Any, Callable, Optional, Sequence, Tuple
 
 import flax.linen as nn
 import jax
@@ -40,13 +46,15 @@ class MLP(nn.Module):
     """x -> relu(W_1 x + b_1) -> ... -> W_L h + b_L, with layers named `Dense_0..Dense_{L-1}`.
 
     `output_sizes` lists every layer's width, the last one included; `activate_final` applies
-    ReLU after the last layer too (a trunk).
+    ReLU after the last layer too (a trunk). Layers followed by a ReLU compute in `hidden_dtype`
+    (None: the parameters' dtype); a final linear layer in the parameters' dtype.
     """
 
     output_sizes: Sequence[int]
     initializer: str = "flax"
     last_layer_init: Optional[float] = None
     activate_final: bool = False
+    hidden_dtype: Optional[Any] = None
 
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
@@ -54,8 +62,10 @@ class MLP(nn.Module):
             last = i == len(self.output_sizes) - 1
             kernel_init, bias_init = dense_initializers(
                 self.initializer, x.shape[-1], self.last_layer_init, last and not self.activate_final)
-            x = nn.Dense(size, kernel_init=kernel_init, bias_init=bias_init, name=f"Dense_{i}")(x)
-            if not last or self.activate_final:
+            hidden = not last or self.activate_final
+            x = nn.Dense(size, kernel_init=kernel_init, bias_init=bias_init,
+                         dtype=self.hidden_dtype if hidden else None, name=f"Dense_{i}")(x)
+            if hidden:
                 x = nn.relu(x)
         return x
 
@@ -75,6 +85,7 @@ class CriticEnsemble(nn.Module):
     num_critics: int = 2
     initializer: str = "flax"
     last_layer_init: Optional[float] = None
+    hidden_dtype: Optional[Any] = None
 
     @nn.compact
     def __call__(self, obs: jax.Array, action: jax.Array) -> jax.Array:
@@ -88,7 +99,7 @@ class CriticEnsemble(nn.Module):
         )
         x = jnp.concatenate([obs, action], axis=-1)
         q = ensemble(tuple(self.hidden_sizes) + (1,), self.initializer, self.last_layer_init,
-                     name="critics")(jnp.broadcast_to(x, (self.num_critics,) + x.shape))
+                     hidden_dtype=self.hidden_dtype, name="critics")(jnp.broadcast_to(x, (self.num_critics,) + x.shape))
         return q[..., 0]
 
 
@@ -98,10 +109,12 @@ class ValueNetwork(nn.Module):
     hidden_sizes: Sequence[int]
     initializer: str = "flax"
     last_layer_init: Optional[float] = None
+    hidden_dtype: Optional[Any] = None
 
     @nn.compact
     def __call__(self, obs: jax.Array) -> jax.Array:
-        v = MLP(tuple(self.hidden_sizes) + (1,), self.initializer, self.last_layer_init, name="value")(obs)
+        v = MLP(tuple(self.hidden_sizes) + (1,), self.initializer, self.last_layer_init,
+                hidden_dtype=self.hidden_dtype, name="value")(obs)
         return v[..., 0]
 
 
@@ -121,16 +134,19 @@ class Actor(nn.Module):
     log_std_mode: str = "tanh"
     log_std_min: float = -5.0
     log_std_max: float = 2.0
+    hidden_dtype: Optional[Any] = None
 
     @nn.compact
     def __call__(self, obs: jax.Array) -> Tuple[jax.Array, jax.Array]:
         sizes = tuple(self.hidden_sizes) + (self.action_size,)
+        mlp = lambda sizes, **kwargs: MLP(sizes, self.initializer, hidden_dtype=self.hidden_dtype,
+                                          **kwargs)
         if self.separate_log_std_network:
-            mean = MLP(sizes, self.initializer, self.last_layer_init, name="mean_net")(obs)
-            log_std = MLP(sizes, self.initializer, self.last_layer_init, name="log_std_net")(obs)
+            mean = mlp(sizes, last_layer_init=self.last_layer_init, name="mean_net")(obs)
+            log_std = mlp(sizes, last_layer_init=self.last_layer_init, name="log_std_net")(obs)
         else:
-            h = MLP(tuple(self.hidden_sizes), self.initializer, activate_final=True, name="trunk")(obs)
-            head = lambda name: MLP((self.action_size,), self.initializer, self.last_layer_init,
+            h = mlp(tuple(self.hidden_sizes), activate_final=True, name="trunk")(obs)
+            head = lambda name: mlp((self.action_size,), last_layer_init=self.last_layer_init,
                                     name=name)(h)
             mean, log_std = head("mean"), head("log_std")
         if self.log_std_mode == "clip":

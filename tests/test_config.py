@@ -30,6 +30,7 @@ BAD_VALUES = [
     ("log_prob_correction", "none", "must be one of"),
     ("alpha_loss", "beta", "must be one of"),
     ("alpha_log_prob", "cached", "must be one of"),
+    ("hidden_dtype", "float16", "must be one of"),
     ("log_std_min", 3.0, "below log_std_max"),
     ("last_layer_init", -0.1, "> 0"),
     ("target_entropy", float("inf"), "finite"),
