@@ -1,9 +1,11 @@
 """sac_jax.run_dir checkpoints: the whole state comes back bit for bit, only the filled replay
 slots are stored, saving at a new fill level compiles nothing, the background writer stores
-the state as it was when asked, and a checkpoint whose metadata does not fit is refused."""
+the state as it was when asked without holding up the caller, writing the newest of the states
+waiting, and a checkpoint whose metadata does not fit is refused."""
 
 import logging
 import os
+import threading
 
 import jax
 import numpy as np
@@ -61,11 +63,15 @@ def test_saving_at_new_fill_levels_compiles_nothing(run, tmp_path, caplog):
     the CPU, while the device waited (BENCHMARKS.md)."""
     _, saved = run
     runner = jax.device_put(saved)  # device arrays, as a run's state
+    writer = run_dir.CheckpointWriter(str(tmp_path / "writer"))
+    (tmp_path / "writer").mkdir()
     with jax.log_compiles(True), caplog.at_level(logging.WARNING):
         for filled in (41, 42):
-            size = jax.device_put(np.int32(filled))
-            run_dir.save_checkpoint(str(tmp_path), runner.replace(
-                buffer=runner.buffer.replace(size=size)), {"chunks_done": 1})
+            state = runner.replace(buffer=runner.buffer.replace(
+                size=jax.device_put(np.int32(filled))))
+            run_dir.save_checkpoint(str(tmp_path), state, {"chunks_done": 1})
+            writer.save(state, {"chunks_done": 1})  # nor does the writer's device-side copy
+        writer.close()
     assert not [r.getMessage() for r in caplog.records if "ompil" in r.getMessage()]
 
 
@@ -86,6 +92,32 @@ def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path):
     writer.close()
     written, direct = (tmp_path / name / run_dir.CHECKPOINT for name in ("writer", "direct"))
     assert written.read_bytes() == direct.read_bytes()
+
+
+def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
+        run, tmp_path, monkeypatch):
+    """While the first write is held up, three more saves return and queue; once it is let go,
+    only the newest of them is written, and its state is the one that was saved."""
+    written, started, release = [], threading.Event(), threading.Event()
+
+    def slow_save(directory, runner, position):
+        if not written:
+            started.set()
+            assert release.wait(timeout=60)
+        written.append((position["chunks_done"], int(runner.buffer.size)))
+
+    monkeypatch.setattr(run_dir, "save_checkpoint", slow_save)
+    writer = run_dir.CheckpointWriter(str(tmp_path))
+    _, saved = run
+    save = lambda n: writer.save(saved.replace(buffer=saved.buffer.replace(size=np.int32(n))),
+                                 {"chunks_done": n})
+    save(1)
+    assert started.wait(timeout=60)
+    for n in (2, 3, 4):
+        save(n)
+    release.set()
+    writer.close()
+    assert written == [(1, 1), (4, 4)]
 
 
 def test_background_writer_reraises_a_failed_write(run, tmp_path):
