@@ -98,8 +98,9 @@ class CriticEnsemble(nn.Module):
             axis_size=self.num_critics,
         )
         x = jnp.concatenate([obs, action], axis=-1)
-        q = ensemble(tuple(self.hidden_sizes) + (1,), self.initializer, self.last_layer_init,
-                     hidden_dtype=self.hidden_dtype, name="critics")(jnp.broadcast_to(x, (self.num_critics,) + x.shape))
+        critics = ensemble(tuple(self.hidden_sizes) + (1,), self.initializer,
+                           self.last_layer_init, hidden_dtype=self.hidden_dtype, name="critics")
+        q = critics(jnp.broadcast_to(x, (self.num_critics,) + x.shape))
         return q[..., 0]
 
 

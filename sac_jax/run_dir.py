@@ -147,10 +147,10 @@ class CheckpointWriter(_BackgroundWrites):
     a copy of the state in new device buffers (`jax.device_put(..., may_alias=False)`, which
     compiles nothing; the next chunk may then take over the state's own) and returns; the
     background thread copies it to host memory, serialises and writes it while the device
-    trains on. When saves come faster than writes, the thread writes the
-    newest state saved and skips the older ones waiting: the file always holds a whole state,
-    the newest one written. (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of
-    a 19.4 s run; copying to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.)"""
+    trains on. When saves come faster than writes, the thread writes the newest state saved and
+    skips the older ones waiting: the file always holds a whole state, the newest one written.
+    (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run; copying
+    to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.)"""
 
     def __init__(self, run_dir: str):
         super().__init__()
