@@ -15,17 +15,19 @@ written into by a new run; every later file is written to a temporary name and r
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
 import copy
 import csv
 import dataclasses
 import io
 import json
+import math
 import os
 import shutil
 import tempfile
 import threading
-from typing import Dict, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import jax
 import numpy as np
@@ -109,11 +111,14 @@ def _checkpoint_leaves(runner: RunnerState) -> Tuple[list, int]:
     return checkpoint.to_host(_buffer_filled_to(runner, filled)), filled
 
 
-def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
-    """Saves the training state and the host loop's `position` (chunks done, clocks)."""
-    leaves, filled = _checkpoint_leaves(runner)
+def _write_leaves(run_dir: str, leaves: list, filled: int, position: dict) -> None:
     checkpoint.save(os.path.join(run_dir, CHECKPOINT), leaves,
                     {"position": position, "buffer_filled": filled})
+
+
+def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
+    """Saves the training state and the host loop's `position` (chunks done, clocks)."""
+    _write_leaves(run_dir, *_checkpoint_leaves(runner), position)
 
 
 class _BackgroundWrites:
@@ -142,6 +147,25 @@ class _BackgroundWrites:
             self._pool.shutdown()
 
 
+def _room_for_copy(tree) -> bool:
+    """Whether every device holding part of `tree` has free memory for twice that part: a copy,
+    and as much again left for the next chunk. True where the backend reports no memory limit
+    (the CPU, whose device memory is the host's)."""
+    need = collections.Counter()
+    for leaf in jax.tree_util.tree_leaves(tree):
+        if not isinstance(leaf, jax.Array):
+            continue  # host memory
+        shard = leaf.nbytes * math.prod(leaf.sharding.shard_shape(leaf.shape)) // max(
+            1, math.prod(leaf.shape))
+        for device in leaf.sharding.addressable_devices:
+            need[device] += shard
+    for device, nbytes in need.items():
+        stats = device.memory_stats() or {}
+        if "bytes_limit" in stats and stats["bytes_limit"] - stats["bytes_in_use"] < 2 * nbytes:
+            return False
+    return True
+
+
 class CheckpointWriter(_BackgroundWrites):
     """`save_checkpoint` off the training's critical path. `save(runner, position)` only queues
     a copy of the state in new device buffers (`jax.device_put(..., may_alias=False)`, which
@@ -149,6 +173,8 @@ class CheckpointWriter(_BackgroundWrites):
     background thread copies it to host memory, serialises and writes it while the device
     trains on. When saves come faster than writes, the thread writes the newest state saved and
     skips the older ones waiting: the file always holds a whole state, the newest one written.
+    A device without room for the copy (`_room_for_copy`) gets none: `save` then waits for the
+    writes under way, whose copies it frees, and fetches the state to host memory in line.
     (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run; copying
     to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.)"""
 
@@ -156,18 +182,25 @@ class CheckpointWriter(_BackgroundWrites):
         super().__init__()
         self._run_dir = run_dir
         self._lock = threading.Lock()
-        self._newest: Optional[tuple] = None
+        self._newest: Optional[Callable[[], None]] = None
 
     def _write_newest(self) -> None:
         with self._lock:
-            newest, self._newest = self._newest, None
-        if newest is not None:
-            save_checkpoint(self._run_dir, *newest)
+            write, self._newest = self._newest, None
+        if write is not None:
+            write()
 
     def save(self, runner: RunnerState, position: dict) -> None:
-        newest = (jax.device_put(runner, may_alias=False), copy.deepcopy(position))
+        position = copy.deepcopy(position)
+        if _room_for_copy(runner):
+            state = jax.device_put(runner, may_alias=False)
+            write = lambda: save_checkpoint(self._run_dir, state, position)
+        else:
+            self._collect(wait=True)
+            leaves, filled = _checkpoint_leaves(runner)
+            write = lambda: _write_leaves(self._run_dir, leaves, filled, position)
         with self._lock:
-            self._newest = newest
+            self._newest = write
         self._submit(self._write_newest)
 
 

@@ -75,10 +75,13 @@ def test_saving_at_new_fill_levels_compiles_nothing(run, tmp_path, caplog):
     assert not [r.getMessage() for r in caplog.records if "ompil" in r.getMessage()]
 
 
-def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path):
+@pytest.mark.parametrize("room", [True, False], ids=["device copy", "no room: fetched in line"])
+def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monkeypatch, room):
     """The device buffers are deleted (as the next chunk's donation does) and the position
     changed right after `save`: the file still holds the state and position of the call,
-    byte for byte what `save_checkpoint` writes."""
+    byte for byte what `save_checkpoint` writes, whether the device had room for a copy of the
+    state or not."""
+    monkeypatch.setattr(run_dir, "_room_for_copy", lambda tree: room)
     _, saved = run
     (tmp_path / "writer").mkdir(), (tmp_path / "direct").mkdir()
     run_dir.save_checkpoint(str(tmp_path / "direct"), saved, {"chunks_done": 3})
