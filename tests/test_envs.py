@@ -161,6 +161,17 @@ def test_interface():
         assert env.dt == pytest.approx(dt)
 
 
+def test_lean_stages_default_follows_the_backend(monkeypatch):
+    """MJX envs take the lean RK4 stages (`MjxEnv._rk4_lean`) except on a CPU, unless told;
+    tests/test_envs_x64.py checks both forms against Gymnasium."""
+    env = envs.make("InvertedPendulum-v5")
+    assert env.lean_stages is None and not env._uses_lean_stages()  # the CPU here
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    assert env._uses_lean_stages()
+    env.lean_stages = False
+    assert not env._uses_lean_stages()
+
+
 def test_errors():
     with pytest.raises(ValueError, match="CartPole-v1.*InvertedPendulum-v5"):
         envs.make("CartPole-v1")

@@ -9,7 +9,8 @@ Measured max |Δ(q, q̇)| between our float64 physics state and Gymnasium's over
 episode (CPU, seed 0): 1.1e-15 (InvertedPendulum-v5, 253 steps), 5.1e-15
 (InvertedDoublePendulum-v5, 254 steps), 3.9e-13 (Pendulum-v1, 200 steps; θ is
 unnormalised and grows to tens of radians); compare 1e-7 .. 1e-5 in float32.
-Asserted: 1e-10.  Observations are float32 by contract, so they agree to float32
+The MJX environments' lean RK4 stages (`envs.mjx_env.MjxEnv.lean_stages`, a GPU's default)
+are checked too: 1.1e-15 and 8.9e-15. Asserted: 1e-10.  Observations are float32 by contract, so they agree to float32
 rounding of the value (asserted 1e-6 relative).
 """
 
@@ -24,12 +25,15 @@ import envs
 from tests import _env_reference as ref
 
 
-@pytest.mark.parametrize(
-    "name", ["InvertedPendulum-v5", "InvertedDoublePendulum-v5", "Pendulum-v1"]
-)
-def test_float64_matches_gymnasium_to_rounding(name):
+@pytest.mark.parametrize("name, lean", [
+    ("InvertedPendulum-v5", False), ("InvertedPendulum-v5", True),
+    ("InvertedDoublePendulum-v5", False), ("InvertedDoublePendulum-v5", True),
+    ("Pendulum-v1", None)])
+def test_float64_matches_gymnasium_to_rounding(name, lean):
     with jax.enable_x64(True):
         env = envs.make(name)
+        if lean is not None:
+            env.lean_stages = lean
         gain, on, noise = ref.inputs(env)
         gain, noise = np.float64(gain), np.float64(noise)
         s0, states = ref.make_rollout(env)(jax.random.key(0), jnp.int32(0), gain, on, noise)
