@@ -3,7 +3,8 @@
 MJX: ``jit`` of a ``lax.scan`` over ``--steps`` steps of ``VectorEnv.step`` (vmapped step
 with auto-reset) with uniform random actions, for each ``--sizes`` instance count.  Compile
 time is measured separately (``jit(...).lower(...).compile()``); run time is the median of
-``--repeats`` calls of the compiled function.
+``--repeats`` calls of the compiled function. ``--lean-stages on|off`` sets the environment's
+`envs.mjx_env.MjxEnv.lean_stages` (default: the platform's choice, lean except on a CPU).
 
 Baselines on the same machine:
 * Gymnasium's C-MuJoCo ``InvertedPendulum-v5`` stepped in a Python loop (one instance,
@@ -43,9 +44,12 @@ def _median_seconds(fn, repeats: int) -> float:
     return statistics.median(times)
 
 
-def bench_mjx(num_envs: int, steps: int, repeats: int) -> tuple[float, float]:
+def bench_mjx(num_envs: int, steps: int, repeats: int, lean_stages=None
+              ) -> tuple[float, float]:
     """(compile seconds, median run seconds) of ``steps`` vector steps of ``num_envs``."""
-    vec = envs.VectorEnv(envs.make(ENV), num_envs)
+    env = envs.make(ENV)
+    env.lean_stages = lean_stages
+    vec = envs.VectorEnv(env, num_envs)
     low, high = vec.env.action_low, vec.env.action_high
 
     def body(carry, _):
@@ -111,7 +115,9 @@ def main() -> None:
     parser.add_argument("--rollout-steps", type=int, default=100, help="env steps per instance")
     parser.add_argument("--threads", type=int, default=os.cpu_count())
     parser.add_argument("--skip-baselines", action="store_true")
+    parser.add_argument("--lean-stages", choices=["auto", "on", "off"], default="auto")
     args = parser.parse_args()
+    lean = {"auto": None, "on": True, "off": False}[args.lean_stages]
 
     print(f"machine: {platform.node()} {platform.machine()} {os.cpu_count()} CPUs; "
           f"jax {jax.__version__} devices {jax.devices()}; mujoco {mujoco.__version__}\n")
@@ -124,8 +130,8 @@ def main() -> None:
         print(f"| {backend} | {n} | {steps} | {compile_txt} | {run_s:.3f} | {rate:,.0f} |", flush=True)
 
     for n in args.sizes:
-        row(f"MJX lax.scan ({jax.default_backend()})", n, args.steps,
-            *bench_mjx(n, args.steps, args.repeats))
+        row(f"MJX lax.scan ({jax.default_backend()}, lean stages {args.lean_stages})", n,
+            args.steps, *bench_mjx(n, args.steps, args.repeats, lean))
     if args.skip_baselines:
         return
     row("Gymnasium C MuJoCo, Python loop", 1, args.gym_steps, None,

@@ -1,6 +1,6 @@
 """Seconds of one evaluation of many seeds (`jax.vmap(sac_jax.evaluate)`, 5 episodes each).
 
-    python benchmarks/evaluation_cost.py RUN_DIR [--seeds 256] [--repeats 3]
+    python benchmarks/evaluation_cost.py RUN_DIR [--seeds 256] [--repeats 3] [--lean-stages on]
 
 RUN_DIR is a finished `scripts/train.py` run whose seed 0 balances InvertedPendulum-v5 (its
 episodes last the full 1,000 steps). Three populations of `--seeds` actors, evaluated in one
@@ -14,7 +14,8 @@ jitted `vmap` as in a multi-seed training run:
 and, for the half-fallen population, the earlier loop that stepped ended episodes on from where
 they ended (`run_on_evaluate` below, the "before" of BENCHMARKS.md). Each figure is the median
 of `--repeats` timings after a first, compiling call; each population's mean return and longest
-episode are printed beside it (both loops give the same).
+episode are printed beside it (both loops give the same). `--lean-stages on|off` sets the
+environment's `envs.mjx_env.MjxEnv.lean_stages` (default: the platform's choice).
 """
 
 from __future__ import annotations
@@ -73,9 +74,11 @@ def main(argv=None):
     parser.add_argument("run_dir")
     parser.add_argument("--seeds", type=int, default=256)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--lean-stages", choices=["auto", "on", "off"], default="auto")
     args = parser.parse_args(argv)
     policy = sac_jax.load_policy(args.run_dir)
     agent, env = agent_for(policy.config)
+    env.lean_stages = {"auto": None, "on": True, "off": False}[args.lean_stages]
     seeds = args.seeds
     trained = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (seeds,) + x.shape),
                                      policy.actor_params)
@@ -88,7 +91,8 @@ def main(argv=None):
         ("trained", new, trained), ("half fallen", new, half),
         ("half fallen, run-on loop", old, half), ("untrained", new, untrained)]}
     print(json.dumps({"benchmark": "evaluation_cost", "device": jax.devices()[0].device_kind,
-                      "seeds": seeds, "episodes_per_seed": EPISODES, **results}))
+                      "seeds": seeds, "episodes_per_seed": EPISODES,
+                      "lean_stages": args.lean_stages, **results}))
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@
 # .whl/ (see BENCHMARKS.md), brax and its imported needs too (brax, jaxopt, ml_collections,
 # orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
 # and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
-# Usage: bash benchmarks/gpu.sh env|evaluation
+# Usage: bash benchmarks/gpu.sh env [env_throughput.py flags, e.g. --sizes 8 1280 --lean-stages off]
+#        bash benchmarks/gpu.sh evaluation [evaluation_cost.py flags, e.g. --seeds 1 --lean-stages off]
 #        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype bfloat16]
 #        bash benchmarks/gpu.sh train [scripts/train.py flags for every run, e.g.
 #          --hidden-dtype bfloat16]
@@ -21,10 +22,11 @@ mode=${1:-}; shift
 case "$mode" in
   env)
     python3 benchmarks/env_throughput.py --sizes 1024 16384 131072 --steps 200 --repeats 3 \
-      --skip-baselines ;;
+      --skip-baselines "$@" ;;
   updates)
     python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 "$@" ;;
   train)
+    rm -rf /tmp/runs
     for seed in 0 1 2; do
       python3 scripts/train.py --seed "$seed" --cache-dir /tmp/jaxcache --out "/tmp/runs/1-$seed" \
         "$@" 2>&1 | tail -1
@@ -33,8 +35,9 @@ case "$mode" in
       | tail -1
     python3 benchmarks/solve_times.py /tmp/runs/* ;;
   evaluation)
+    rm -rf /tmp/policy-run
     python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1
-    python3 benchmarks/evaluation_cost.py /tmp/policy-run ;;
+    python3 benchmarks/evaluation_cost.py /tmp/policy-run "$@" ;;
   parallel)
     python3 benchmarks/data_parallel.py
     python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384
