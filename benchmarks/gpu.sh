@@ -9,6 +9,7 @@
 #        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype bfloat16]
 #        bash benchmarks/gpu.sh train [scripts/train.py flags for every run, e.g.
 #          --hidden-dtype bfloat16]
+#        bash benchmarks/gpu.sh profile [profile_chunk.py flags, e.g. --hidden-dtype float32]
 #        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
@@ -38,6 +39,8 @@ case "$mode" in
     rm -rf /tmp/policy-run
     python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1
     python3 benchmarks/evaluation_cost.py /tmp/policy-run "$@" ;;
+  profile)
+    python3 benchmarks/profile_chunk.py "$@" ;;
   parallel)
     python3 benchmarks/data_parallel.py
     python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384

@@ -12,6 +12,8 @@ The environment step, the update and the evaluation each appear once in the trac
 (prefill and training share the iteration; phases switch with `lax.cond` on the iteration
 count, which stays a real branch under `vmap`), which keeps compile time down.
 `jax.jit(train)` compiles one program; `jax.jit(jax.vmap(train))(keys)` trains many seeds in it.
+The parts carry `jax.named_scope`s (act, env_step, replay_add, replay_sample, sac_update,
+evaluate), by which a profile can sum its kernels (benchmarks/profile_chunk.py).
 
 The same loop comes in pieces from `make_train_parts`: `init(key)` and `chunk(runner)`, a scan
 over `chunk_iterations` iterations (a divisor of both the prefill and the evaluation period, so
@@ -159,8 +161,11 @@ def make_train_parts(config: SACConfig,
         # randomness: U keys (sac_update draws its noise from each) or the recorded noise
         index, randomness = (learning_draws(key, buffer.size) if recorded is None
                              else (recorded.batch_index, recorded.update_noise))
-        sac, metrics = jax.lax.scan(lambda sac, xs: sac_update(agent, sac, *xs), sac,
-                                    (rb.gather(buffer, index), randomness))
+        with jax.named_scope("replay_sample"):
+            batches = rb.gather(buffer, index)
+        with jax.named_scope("sac_update"):
+            sac, metrics = jax.lax.scan(lambda sac, xs: sac_update(agent, sac, *xs), sac,
+                                        (batches, randomness))
         # float32 whatever the parameters' dtype (float64 in the x64 equivalence test)
         return sac, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
                      else nan for name in METRIC_NAMES}
@@ -169,8 +174,9 @@ def make_train_parts(config: SACConfig,
         index = (runner.iteration - prefill) // period - 1
         key, k_eval = jax.random.split(runner.key)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
-        out["eval_return"] = jnp.mean(
-            evaluate(agent, env, runner.sac.actor_params, k_eval, config.eval_episodes))
+        with jax.named_scope("evaluate"):
+            out["eval_return"] = jnp.mean(
+                evaluate(agent, env, runner.sac.actor_params, k_eval, config.eval_episodes))
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
         if progress is not None:
             jax.debug.callback(progress, out)
@@ -188,13 +194,16 @@ def make_train_parts(config: SACConfig,
             recorded = jax.tree_util.tree_map(lambda x: x[runner.iteration], runner.draws)
             random_action, action_noise = recorded.random_action, recorded.action_noise
         obs = runner.env.env_state.obs
-        action = jnp.where(
-            learning, agent.sample_action(runner.sac.actor_params, obs, action_noise)[0],
-            random_action)
-        env_state, step = vec.step(runner.env, action)
-        buffer = rb.add(runner.buffer, Transition(
-            obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
-            terminated=step.terminated.astype(jnp.float32)))
+        with jax.named_scope("act"):
+            action = jnp.where(
+                learning, agent.sample_action(runner.sac.actor_params, obs, action_noise)[0],
+                random_action)
+        with jax.named_scope("env_step"):
+            env_state, step = vec.step(runner.env, action)
+        with jax.named_scope("replay_add"):
+            buffer = rb.add(runner.buffer, Transition(
+                obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
+                terminated=step.terminated.astype(jnp.float32)))
         sac, metrics = jax.lax.cond(
             learning, lambda sac: learn(sac, buffer, k_learn, recorded),
             lambda sac: (sac, {name: nan for name in METRIC_NAMES}), runner.sac)

@@ -1,0 +1,113 @@
+"""Where one training chunk's GPU time goes: kernels and kernel time by part of the iteration.
+
+    python benchmarks/profile_chunk.py [--seeds 1 256] [--hidden-dtype bfloat16] [--chunks 4]
+
+For each seed count: compiles the chunk of the `fast` preset as `scripts/train.py --seeds S`
+runs it on one device (`sac_jax.parallel.seeds_program`), runs `--chunks` chunks (the first
+is the prefill), then one more under `jax.profiler.trace`. Each GPU kernel of that chunk is
+mapped to the fused HLO instruction it runs (its name) and through that instruction's `op_name`
+to the part of `sac_jax.train`'s iteration it comes from, by the named scopes there: act,
+env_step, replay_add, replay_sample, sac_update, evaluate. Kernels of no part (loop counters,
+copies between loop iterations, metric sums) count as "other". Prints one JSON line per seed
+count: the compile and chunk seconds without the profiler, the profiled chunk's highest
+evaluation return (InvertedPendulum-v5 scores 1 per step, so about its evaluation's length in
+steps), and per part [kernels, kernel ms]. Needs a GPU: a CPU trace holds no kernels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import dataclasses
+import glob
+import json
+import os
+import re
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import jax  # noqa: E402
+from jax.profiler import ProfileData  # noqa: E402
+
+from sac_jax.parallel import seeds_program  # noqa: E402
+from sac_jax.presets import PRESETS  # noqa: E402
+from sac_jax.train import SEED_AXES, make_train_parts  # noqa: E402
+
+PARTS = ("act", "env_step", "replay_add", "replay_sample", "sac_update", "evaluate")
+
+
+def parts_of_instructions(hlo_text: str) -> dict:
+    """{HLO instruction name: the first of `PARTS` in its op_name, or "other"}."""
+    parts = {}
+    for line in hlo_text.splitlines():
+        match = re.match(r'\s*(?:ROOT )?%?([\w.\-]+) = .*?op_name="([^"]*)"', line)
+        if match:
+            scopes = [scope for scope in match.group(2).split("/") if scope in PARTS]
+            parts[match.group(1)] = scopes[0] if scopes else "other"
+    return parts
+
+
+def kernel_time_by_part(trace_dir: str, parts: dict) -> dict:
+    """{part: [kernels, kernel ms]} of the GPU kernels in the trace under `trace_dir`; a
+    kernel named `fusion_12` runs instruction `fusion.12`."""
+    totals = collections.defaultdict(lambda: [0, 0.0])
+    (path,) = glob.glob(os.path.join(trace_dir, "**", "*.xplane.pb"), recursive=True)
+    for plane in ProfileData.from_file(path).planes:
+        if "gpu" not in plane.name.lower():
+            continue
+        for line in plane.lines:
+            if "stream" not in line.name.lower():
+                continue
+            for event in line.events:
+                name = event.name
+                part = parts.get(name) or parts.get(re.sub(r"_(\d+)$", r".\1", name), "other")
+                totals[part][0] += 1
+                totals[part][1] += event.duration_ns / 1e6
+    return {part: [count, round(ms, 1)]
+            for part, (count, ms) in sorted(totals.items(), key=lambda kv: -kv[1][1])}
+
+
+def profile(seeds: int, hidden_dtype: str, chunks: int) -> dict:
+    config = dataclasses.replace(PRESETS["fast"], hidden_dtype=hidden_dtype)
+    parts = make_train_parts(config)
+    init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
+    chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
+    state = init(jax.random.split(jax.random.key(0), seeds))
+    start = time.perf_counter()
+    compiled = chunk.lower(state).compile()
+    compile_s = time.perf_counter() - start
+    walls = []
+    for _ in range(chunks):
+        start = time.perf_counter()
+        state = compiled(state)
+        int(state.iteration)  # waits for the chunk
+        walls.append(round(time.perf_counter() - start, 3))
+    with tempfile.TemporaryDirectory() as trace_dir:
+        with jax.profiler.trace(trace_dir):
+            state = compiled(state)
+            int(state.iteration)
+        by_part = kernel_time_by_part(trace_dir, parts_of_instructions(compiled.as_text()))
+    returns = jax.device_get(state.outputs["eval_return"])
+    return {"seeds": seeds, "hidden_dtype": hidden_dtype, "device": jax.devices()[0].device_kind,
+            "compile_s": round(compile_s, 1), "chunk_s": walls,
+            "profiled_chunk_max_eval_return": float(returns[:, chunks - 1].max()),
+            "kernels_and_ms_by_part": by_part}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 256])
+    parser.add_argument("--hidden-dtype", choices=["float32", "bfloat16"], default="bfloat16")
+    parser.add_argument("--chunks", type=int, default=4,
+                        help="chunks run before the profiled one (the first is the prefill)")
+    args = parser.parse_args(argv)
+    for seeds in args.seeds:
+        print(json.dumps(profile(seeds, args.hidden_dtype, args.chunks)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
