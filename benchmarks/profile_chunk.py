@@ -1,6 +1,7 @@
 """Where one training chunk's GPU time goes: kernels and kernel time by part of the iteration.
 
     python benchmarks/profile_chunk.py [--seeds 1 256] [--hidden-dtype bfloat16] [--chunks 4]
+                                       [--top 10]
 
 For each seed count: compiles the chunk of the `fast` preset as `scripts/train.py --seeds S`
 runs it on one device (`sac_jax.parallel.seeds_program`), runs `--chunks` chunks (the first
@@ -11,7 +12,8 @@ env_step, replay_add, replay_sample, sac_update, evaluate. Kernels of no part (l
 copies between loop iterations, metric sums) count as "other". Prints one JSON line per seed
 count: the compile and chunk seconds without the profiler, the profiled chunk's highest
 evaluation return (InvertedPendulum-v5 scores 1 per step, so about its evaluation's length in
-steps), and per part [kernels, kernel ms]. Needs a GPU: a CPU trace holds no kernels.
+steps), and per part [kernels, kernel ms]; with `--top N`, each part's N kernels of most time
+(kernel name, launches, ms, the tail of its op_name). Needs a GPU: a CPU trace holds no kernels.
 """
 
 from __future__ import annotations
@@ -39,21 +41,27 @@ from sac_jax.train import SEED_AXES, make_train_parts  # noqa: E402
 PARTS = ("act", "env_step", "replay_add", "replay_sample", "sac_update", "evaluate")
 
 
-def parts_of_instructions(hlo_text: str) -> dict:
-    """{HLO instruction name: the first of `PARTS` in its op_name, or "other"}."""
-    parts = {}
+def op_names(hlo_text: str) -> dict:
+    """{HLO instruction name: its op_name} of the compiled program's text."""
+    names = {}
     for line in hlo_text.splitlines():
         match = re.match(r'\s*(?:ROOT )?%?([\w.\-]+) = .*?op_name="([^"]*)"', line)
         if match:
-            scopes = [scope for scope in match.group(2).split("/") if scope in PARTS]
-            parts[match.group(1)] = scopes[0] if scopes else "other"
-    return parts
+            names[match.group(1)] = match.group(2)
+    return names
 
 
-def kernel_time_by_part(trace_dir: str, parts: dict) -> dict:
-    """{part: [kernels, kernel ms]} of the GPU kernels in the trace under `trace_dir`; a
-    kernel named `fusion_12` runs instruction `fusion.12`."""
+def part_of(op_name: str) -> str:
+    """The first of `PARTS` among the scopes of ``op_name``, or "other"."""
+    return next((scope for scope in op_name.split("/") if scope in PARTS), "other")
+
+
+def kernel_time_by_part(trace_dir: str, names: dict, top: int) -> tuple:
+    """({part: [kernels, kernel ms]}, {part: its `top` kernels of most time}) of the GPU
+    kernels in the trace under `trace_dir`; a kernel named `fusion_12` runs instruction
+    `fusion.12` (`names`: its op_name)."""
     totals = collections.defaultdict(lambda: [0, 0.0])
+    kernels = collections.defaultdict(lambda: [0, 0.0, ""])
     (path,) = glob.glob(os.path.join(trace_dir, "**", "*.xplane.pb"), recursive=True)
     for plane in ProfileData.from_file(path).planes:
         if "gpu" not in plane.name.lower():
@@ -62,15 +70,23 @@ def kernel_time_by_part(trace_dir: str, parts: dict) -> dict:
             if "stream" not in line.name.lower():
                 continue
             for event in line.events:
-                name = event.name
-                part = parts.get(name) or parts.get(re.sub(r"_(\d+)$", r".\1", name), "other")
-                totals[part][0] += 1
-                totals[part][1] += event.duration_ns / 1e6
-    return {part: [count, round(ms, 1)]
-            for part, (count, ms) in sorted(totals.items(), key=lambda kv: -kv[1][1])}
+                op_name = names.get(event.name) or names.get(
+                    re.sub(r"_(\d+)$", r".\1", event.name), "")
+                part = part_of(op_name)
+                for entry in (totals[part], kernels[(part, event.name)]):
+                    entry[0] += 1
+                    entry[1] += event.duration_ns / 1e6
+                kernels[(part, event.name)][2] = op_name[-120:]
+    by_part = {part: [count, round(ms, 1)]
+               for part, (count, ms) in sorted(totals.items(), key=lambda kv: -kv[1][1])}
+    ranked = sorted(kernels.items(), key=lambda kv: -kv[1][1])
+    tops = {part: [[name, count, round(ms, 2), op_name]
+                   for (p, name), (count, ms, op_name) in ranked if p == part][:top]
+            for part in by_part} if top else {}
+    return by_part, tops
 
 
-def profile(seeds: int, hidden_dtype: str, chunks: int) -> dict:
+def profile(seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
     config = dataclasses.replace(PRESETS["fast"], hidden_dtype=hidden_dtype)
     parts = make_train_parts(config)
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
@@ -89,12 +105,12 @@ def profile(seeds: int, hidden_dtype: str, chunks: int) -> dict:
         with jax.profiler.trace(trace_dir):
             state = compiled(state)
             int(state.iteration)
-        by_part = kernel_time_by_part(trace_dir, parts_of_instructions(compiled.as_text()))
+        by_part, tops = kernel_time_by_part(trace_dir, op_names(compiled.as_text()), top)
     returns = jax.device_get(state.outputs["eval_return"])
     return {"seeds": seeds, "hidden_dtype": hidden_dtype, "device": jax.devices()[0].device_kind,
             "compile_s": round(compile_s, 1), "chunk_s": walls,
             "profiled_chunk_max_eval_return": float(returns[:, chunks - 1].max()),
-            "kernels_and_ms_by_part": by_part}
+            "kernels_and_ms_by_part": by_part, **({"top_kernels": tops} if top else {})}
 
 
 def main(argv=None) -> None:
@@ -104,9 +120,10 @@ def main(argv=None) -> None:
     parser.add_argument("--hidden-dtype", choices=["float32", "bfloat16"], default="bfloat16")
     parser.add_argument("--chunks", type=int, default=4,
                         help="chunks run before the profiled one (the first is the prefill)")
+    parser.add_argument("--top", type=int, default=0, help="kernels listed per part")
     args = parser.parse_args(argv)
     for seeds in args.seeds:
-        print(json.dumps(profile(seeds, args.hidden_dtype, args.chunks)), flush=True)
+        print(json.dumps(profile(seeds, args.hidden_dtype, args.chunks, args.top)), flush=True)
 
 
 if __name__ == "__main__":
