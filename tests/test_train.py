@@ -1,7 +1,9 @@
 """make_train on a small Pendulum-v1 run (pure JAX, quick to compile): output shapes and
-values, determinism, and vmap over seeds equal to separate runs."""
+values, determinism, vmap over seeds equal to separate runs, and the named scopes of the
+iteration's parts."""
 
 import jax
+import jax.extend
 import numpy as np
 import pytest
 
@@ -128,3 +130,21 @@ def test_a_stream_of_the_wrong_shape_is_refused():
     floats = draws.replace(batch_index=jax.ShapeDtypeStruct(draws.batch_index.shape, np.float32))
     with pytest.raises(ValueError, match="batch_index"):
         jax.eval_shape(sac_jax.make_train(CONFIG), KEYS[0], floats)
+
+
+def test_the_iterations_parts_carry_the_named_scopes_profiles_sum_by():
+    """benchmarks/profile_chunk.py attributes a chunk's kernels to the named scopes of its
+    parts; each must name some of the traced chunk's operations."""
+    from benchmarks.profile_chunk import PARTS
+    from sac_jax.train import make_train_parts
+
+    parts = make_train_parts(CONFIG)
+    jaxpr = jax.make_jaxpr(parts.chunk)(jax.eval_shape(parts.init, KEYS[0]))
+
+    def scopes(jaxpr):
+        for eqn in jaxpr.eqns:
+            yield from str(eqn.source_info.name_stack).split("/")
+            for sub in jax.extend.core.jaxprs_in_params(eqn.params):
+                yield from scopes(sub)
+
+    assert set(PARTS) <= set(scopes(jaxpr.jaxpr))
