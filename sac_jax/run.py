@@ -123,7 +123,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
 
     resume: `(state, position)` read from a checkpoint; the run continues from there.
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
-        metrics averaged over seeds and each seed's evaluation return.
+        metrics averaged over seeds and each seed's evaluation return; for a task with a solved
+        threshold (`SOLVED_RETURN`), means["solved"] is the fraction of seeds whose evaluation
+        return has reached it at this or an earlier point.
     on_checkpoint(state, position): after every evaluation point and when stopping on request;
         the state is not touched afterwards until the call returns (save it there).
     should_stop(): polled after every chunk; True ends the run as INTERRUPTED.
@@ -166,12 +168,16 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         if reached:
             points = new_points
             # indexed on the host: a device-side index would compile an op per new point
-            point = {k: v[:, points - 1] for k, v in jax.device_get(runner.outputs).items()}
+            outputs = jax.device_get(runner.outputs)
+            point = {k: v[:, points - 1] for k, v in outputs.items()}
             step = int(point["env_steps"][0])
             position["walls"][str(step)] = position["run_s"]
             if on_point is not None:
-                on_point(step, {k: _nanmean(v) for k, v in point.items()},
-                         np.asarray(point["eval_return"]), position["run_s"])
+                means = {k: _nanmean(v) for k, v in point.items()}
+                if threshold is not None:
+                    means["solved"] = float(np.mean(np.any(
+                        outputs["eval_return"][:, :points] >= threshold, axis=1)))
+                on_point(step, means, np.asarray(point["eval_return"]), position["run_s"])
         stop = should_stop is not None and should_stop()
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
             on_checkpoint(runner, position)

@@ -6,9 +6,10 @@
     python scripts/train.py --resume runs/pendulum           # continue a stopped run
     python scripts/train.py --help                           # every SACConfig field is a flag
 
-Prints one progress line per evaluation point (mean over seeds) and writes the run directory
-(default runs/<preset>-<env>-<time>): config.json, run.json, checkpoint.msgpack (at every
-evaluation), tensorboard/ (live), and at the end metrics.csv, summary.json and curves.png.
+Prints one progress line per evaluation point (mean over seeds; with several seeds, how many
+have solved so far) and writes the run directory (default runs/<preset>-<env>-<time>):
+config.json, run.json, checkpoint.msgpack (at every evaluation), tensorboard/ (live), and at
+the end metrics.csv, summary.json and curves.png.
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
 summary, and exits with 130 or 143; `--resume` continues it to the same result as an
 uninterrupted run. A non-finite parameter stops the run (exit 1) and keeps the last good
@@ -94,15 +95,18 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
 
 def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
     """One line per evaluation point; a value that is not defined at this point (e.g. no
-    training episode ended since the last evaluation) shows as "-"."""
+    training episode ended since the last evaluation) shows as "-". With several seeds and a
+    solved threshold, it ends with how many seeds have solved so far."""
     def number(name, spec):
         value = point[name]
         return format(value, spec) if math.isfinite(value) else "-".rjust(len(format(0.0, spec)))
 
+    solved = f" | solved {round(point['solved'] * seeds)}/{seeds}" if (
+        seeds > 1 and "solved" in point) else ""
     return (f"step {step:>8d} | eval {number('eval_return', '9.1f')} | train "
             f"{number('train_return', '9.1f')} | alpha {number('alpha', '.3f')} | critic "
             f"{number('critic_loss', '.3g')} | actor {number('actor_loss', '.3g')} | "
-            f"{step * seeds / max(elapsed, 1e-9):8.0f} steps/s | {elapsed:6.1f} s")
+            f"{step * seeds / max(elapsed, 1e-9):8.0f} steps/s | {elapsed:6.1f} s{solved}")
 
 
 def _new_run(args: TrainArgs):

@@ -1,11 +1,12 @@
 """sac_jax.run: once `compiled_program` has compiled a configuration, a run compiles nothing
-more between its chunks (the finiteness check included), and a non-finite state is named by
-quantity and seed."""
+more between its chunks (the finiteness check included), each evaluation point reports the
+fraction of seeds solved so far, and a non-finite state is named by quantity and seed."""
 
 import logging
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 import sac_jax
 from sac_jax import run
@@ -26,6 +27,21 @@ def test_a_run_compiles_nothing_between_its_chunks(caplog):
     compiled = [r.getMessage() for r in caplog.records if "ompil" in r.getMessage()]
     # only the split of the seeds' keys, before the clock of the run starts
     assert all("split" in m for m in compiled), compiled
+
+
+def test_each_point_reports_the_fraction_of_seeds_solved_so_far(monkeypatch):
+    """means["solved"] at point p: the seeds whose evaluation return reached the threshold at
+    some point <= p, with a threshold between the returns this run reaches."""
+    returns = run.run_training(CONFIG, seeds=2).metrics["eval_return"]  # (seeds, points)
+    threshold = float(np.median(returns))
+    monkeypatch.setitem(run.SOLVED_RETURN, CONFIG.env, threshold)
+    reported = []
+    result = run.run_training(CONFIG, seeds=2,
+                              on_point=lambda step, means, *_: reported.append(means["solved"]))
+    np.testing.assert_array_equal(result.metrics["eval_return"], returns)
+    expected = np.mean(np.maximum.accumulate(returns >= threshold, axis=1), axis=0)
+    assert 0.0 < expected[-1] and expected[0] < 1.0  # the check can tell counts apart
+    np.testing.assert_array_equal(reported, expected)
 
 
 def test_the_first_non_finite_array_is_named_with_its_seed():

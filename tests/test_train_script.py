@@ -87,6 +87,13 @@ def test_progress_line_shows_undefined_values_as_a_dash():
     assert "eval    1000.0" in line and "train         -" in line and "alpha 0.016" in line
 
 
+def test_progress_line_counts_the_seeds_solved_with_several_seeds():
+    point = {"eval_return": 980.0, "train_return": 900.0, "alpha": 0.02, "critic_loss": 2.0,
+             "actor_loss": -40.0, "solved": 0.75}
+    assert train_script._progress_line(7168, point, 256, 4.3).endswith(" s | solved 192/256")
+    assert "solved" not in train_script._progress_line(7168, point, 1, 1.7)
+
+
 # ---------------------------------------------------------------- runs (Pendulum-v1, tiny)
 RUN = ["--preset", "pendulum", "--total-steps", "4000", "--eval-every", "1000",
        "--learning-starts", "1000", "--buffer-size", "4000", "--eval-episodes", "2",
