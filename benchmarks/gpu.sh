@@ -9,6 +9,9 @@
 #        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype bfloat16]
 #        bash benchmarks/gpu.sh train [scripts/train.py flags for every run, e.g.
 #          --hidden-dtype bfloat16]
+#        bash benchmarks/gpu.sh wall [scripts/train.py flags for every run, e.g.
+#          --hidden-dtype bfloat16] (time_to_solve.py: process start to solved, cold and warm,
+#          seeds 0, 1, 2 one at a time, then 256 seeds)
 #        bash benchmarks/gpu.sh profile [profile_chunk.py flags, e.g. --hidden-dtype float32]
 #        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
@@ -35,6 +38,9 @@ case "$mode" in
     python3 scripts/train.py --seeds 256 --cache-dir /tmp/jaxcache --out /tmp/runs/256 "$@" 2>&1 \
       | tail -1
     python3 benchmarks/solve_times.py /tmp/runs/* ;;
+  wall)
+    for seed in 0 1 2; do python3 benchmarks/time_to_solve.py --seed "$seed" "$@"; done
+    python3 benchmarks/time_to_solve.py --seeds 256 "$@" ;;
   evaluation)
     rm -rf /tmp/policy-run
     python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1
