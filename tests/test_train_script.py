@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import sac_jax
+from sac_jax.presets import SOLVED_RETURN
 
 from scripts import train as train_script
 
@@ -169,6 +170,10 @@ def test_tensorboard_events_hold_every_evaluation_point(runs):
     csv_returns = [float(r["eval_return"]) for r in _metrics(runs["whole"])]
     assert [step for step, _ in points] == [2000, 3000, 4000]
     np.testing.assert_allclose([value for _, value in points], csv_returns, rtol=1e-6)
+    # one seed: solved so far is 1 from its first evaluation at the threshold on
+    solved = [value for _, value in _scalars(os.path.join(runs["whole"], "tensorboard"),
+                                               "mean/solved")]
+    assert solved == list(np.maximum.accumulate(np.array(csv_returns) >= SOLVED_RETURN["Pendulum-v1"]).astype(float))
 
 
 def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
