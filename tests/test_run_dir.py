@@ -1,7 +1,8 @@
 """sac_jax.run_dir checkpoints: the whole state comes back bit for bit, only the filled replay
 slots are stored, saving at a new fill level compiles nothing, the background writer stores
 the state as it was when asked without holding up the caller, writing the newest of the states
-waiting, and a checkpoint whose metadata does not fit is refused."""
+waiting, and a checkpoint whose metadata does not fit is refused; the TensorBoard writer
+imports no torch."""
 
 import logging
 import os
@@ -14,6 +15,7 @@ from flax import serialization
 
 from sac_jax import checkpoint, run_dir
 from tests.saved_runs import untrained
+from tests.subprocess_json import run_json
 
 
 @pytest.fixture(scope="module")
@@ -143,3 +145,14 @@ def test_a_fill_level_that_does_not_fit_is_refused(run, tmp_path, filled):
     (copy / run_dir.CHECKPOINT).write_bytes(serialization.msgpack_serialize(payload))
     with pytest.raises(checkpoint.CheckpointError, match="unexpected metadata|array"):
         run_dir.load_checkpoint(str(copy))
+
+
+def test_tensorboard_writer_leaves_torch_unimported(tmp_path):
+    """tensorboardX's writer imports torch when it can (2.2 s on the CPU); scalars need no torch,
+    and an `import torch` afterwards still works where torch is installed."""
+    pytest.importorskip("torch")
+    script = ("import json, sys; from sac_jax import run_dir; "
+              f"run_dir.TensorBoard({str(tmp_path)!r}).close(); "
+              "before = 'torch' in sys.modules; import torch; "
+              "print(json.dumps({'before': before, 'after': 'torch' in sys.modules}))")
+    assert run_json(["-c", script]) == {"before": False, "after": True}
