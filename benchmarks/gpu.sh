@@ -4,6 +4,8 @@
 # .whl/ (see BENCHMARKS.md), brax and its imported needs too (brax, jaxopt, ml_collections,
 # orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
 # and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
+# mujoco's viewer wheels (mujoco-studio, pyopengl, glfw) stay out: MJX does not import them,
+# and without their 16 MB our wheels and brax's fit the device tool's 64 MiB carry together (49 MB).
 # Usage: bash benchmarks/gpu.sh env [env_throughput.py flags, e.g. --sizes 8 1280 --lean-stages off]
 #        bash benchmarks/gpu.sh evaluation [evaluation_cost.py flags, e.g. --seeds 1 --lean-stages off]
 #        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype bfloat16]
