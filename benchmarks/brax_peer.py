@@ -59,7 +59,8 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 import envs  # noqa: E402
-from sac_jax.presets import PRESETS, SOLVED_RETURN  # noqa: E402
+from envs import SOLVED_RETURN  # noqa: E402
+from sac_jax.presets import PRESETS  # noqa: E402
 from sac_jax.run import compiled_program, run_training  # noqa: E402
 
 COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration",

@@ -28,7 +28,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from benchmarks.solve_times import solve_times  # noqa: E402
-from sac_jax.presets import SOLVED_RETURN  # noqa: E402
+from envs import SOLVED_RETURN  # noqa: E402
 
 
 def timed_run(args, cache_dir, out_dir):

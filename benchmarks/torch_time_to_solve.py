@@ -46,7 +46,8 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from sac_jax.presets import PRESETS, SOLVED_RETURN  # noqa: E402
+from envs import SOLVED_RETURN  # noqa: E402
+from sac_jax.presets import PRESETS  # noqa: E402
 from tests.reference import cleanrl_sac  # noqa: E402
 
 ENV = "InvertedPendulum-v5"

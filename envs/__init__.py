@@ -10,12 +10,13 @@ See docs/environments.md for the interface and the list of environments.
 Brax is imported on its first use only.
 """
 
-from envs.registry import DEFAULT_ENV, make, options, registered
+from envs.registry import DEFAULT_ENV, SOLVED_RETURN, make, options, registered
 from envs.types import Env, EnvState
 from envs.vector import VectorEnv, VectorState, VectorStep
 
 __all__ = [
     "DEFAULT_ENV",
+    "SOLVED_RETURN",
     "Env",
     "EnvState",
     "VectorEnv",

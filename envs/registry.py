@@ -20,6 +20,15 @@ _FACTORIES = {
     "Pendulum-v1": Pendulum,
 }
 
+SOLVED_RETURN = {
+    "InvertedPendulum-v5": 950.0,
+    "InvertedPendulum-v4": 950.0,
+    "InvertedPendulumBullet-v0": 950.0,
+    "InvertedDoublePendulum-v5": 9000.0,
+    "Pendulum-v1": -250.0,
+}
+"""Mean deterministic evaluation return at which each task counts as solved."""
+
 
 def registered() -> tuple[str, ...]:
     """Names accepted by :func:`make`."""

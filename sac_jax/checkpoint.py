@@ -19,7 +19,11 @@ import jax
 import numpy as np
 from flax import serialization
 
-FORMAT = 2
+FORMAT = 3
+"""Format 3 holds the delivered actor and the stop flags (`sac_jax.selection`); format 2, of
+earlier sac-jax, holds the same state without them. `load` reads both and says which in the
+returned meta's "format"."""
+FORMATS = (2, FORMAT)
 
 
 class CheckpointError(ValueError):
@@ -62,16 +66,17 @@ def save(path: str, tree: Any, meta: dict) -> None:
 def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, dict]:
     """Reads the checkpoint at `path` into the structure of `template` (a pytree of arrays or
     `jax.ShapeDtypeStruct`s, or a function of the stored `meta` returning one); returns
-    (tree, meta). Raises `CheckpointError` naming the path and the problem."""
+    (tree, meta), meta["format"] being the file's format (one of `FORMATS`). Raises
+    `CheckpointError` naming the path and the problem."""
     if not os.path.isfile(path):
         raise CheckpointError(f"checkpoint {path}: not found")
     try:
         with open(path, "rb") as f:
             payload = serialization.msgpack_restore(f.read())
-        if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        if not isinstance(payload, dict) or payload.get("format") not in FORMATS:
             raise CheckpointError(f"checkpoint {path}: not a sac-jax checkpoint (format "
                                   f"{payload.get('format') if isinstance(payload, dict) else '?'})")
-        stored, meta = payload["leaves"], payload["meta"]
+        stored, meta = payload["leaves"], dict(payload["meta"], format=payload["format"])
     except CheckpointError:
         raise
     except Exception as error:  # msgpack raises several types on damaged input
@@ -79,6 +84,8 @@ def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, d
     if callable(template):
         try:
             template = template(meta)
+        except CheckpointError:
+            raise
         except (KeyError, TypeError, ValueError) as error:
             raise CheckpointError(f"checkpoint {path}: unexpected metadata ({error!r})") from None
     expected, treedef = jax.tree_util.tree_flatten(template)

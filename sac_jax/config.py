@@ -61,6 +61,13 @@ class SACConfig:
     """Environment steps between deterministic evaluations (rounded down to whole iterations)."""
     eval_episodes: int = 10
     """Evaluation episodes, run in parallel on their own environment instances."""
+    confirm_episodes: int = 20
+    """Episodes, from fresh initial states, of the confirmation evaluation of an actor that
+    scores above the kept one: it replaces the kept (delivered) actor only if its confirmed
+    return is higher too (`sac_jax.selection`)."""
+    stop_when_solved: bool = False
+    """End a seed's learning once its delivered actor's confirmed return reaches the task's
+    solved return (`envs.SOLVED_RETURN`); the run ends when every seed has stopped."""
 
     # --- objective ---
     gamma: float = 0.99
@@ -167,8 +174,8 @@ class SACConfig:
         choice("alpha_log_prob", ALPHA_LOG_PROBS)
         choice("hidden_dtype", HIDDEN_DTYPES)
         for field in ("num_envs", "total_steps", "buffer_size", "batch_size", "updates_per_step",
-                      "eval_every", "eval_episodes", "target_update_period", "policy_frequency",
-                      "num_critics"):
+                      "eval_every", "eval_episodes", "confirm_episodes", "target_update_period",
+                      "policy_frequency", "num_critics"):
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
                 fail(field, "must be a positive integer")
@@ -220,6 +227,8 @@ class SACConfig:
         if self.update_order not in UPDATE_ORDERS[self.variant]:
             fail("update_order", f"for variant {self.variant!r} must be one of "
                  f"{sorted(UPDATE_ORDERS[self.variant])}")
+        if self.stop_when_solved and envs.SOLVED_RETURN.get(self.env) is None:
+            fail("stop_when_solved", f"{self.env} has no solved return to stop at")
         if self.variant == "v1" and self.learn_alpha:
             fail("learn_alpha", "SAC v1 uses a fixed temperature (and reward_scale); set False")
 

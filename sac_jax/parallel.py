@@ -128,9 +128,10 @@ def local_config(config: SACConfig, num_devices: int, axis: str = DATA) -> SACCo
     return config.replace(**shares, total_steps=total, data_parallel_axis=axis)
 
 
-DATA_AXES = SEED_AXES.replace(sac=None)
+DATA_AXES = SEED_AXES.replace(sac=None, delivered=None, stopped=None)
 """`jax.vmap` axes of a data-parallel run's state over its D device shares: the learner state
-(every update averages over the axis, so all shares hold the same) and the counters are held
+(every update averages over the axis, so all shares hold the same), the delivered actor and the
+stop flag (selected on evaluation returns averaged over the axis) and the counters are held
 once; environments, replay buffer data, keys, sums and outputs have a leading axis D."""
 
 
@@ -152,11 +153,11 @@ def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     parts = make_train_parts(local_config(config, mesh.size, axis))
 
     def init(key: jax.Array) -> RunnerState:
-        sac = parts.init(key).sac
+        shared = parts.init(key)
 
         def share(index):
             own_key = jnp.where(index == 0, key, jax.random.fold_in(key, index))
-            return parts.init(own_key).replace(sac=sac)
+            return parts.init(own_key).replace(sac=shared.sac, delivered=shared.delivered)
 
         runner = jax.vmap(share, out_axes=DATA_AXES, axis_name=axis)(jnp.arange(mesh.size))
         return _constrain(runner, DATA_AXES, mesh)
@@ -175,11 +176,13 @@ def data_parallel_metrics(outputs: Dict[str, jax.Array]) -> Dict[str, jax.Array]
     `env_steps` summed over devices; `eval_return` the mean over all devices' episodes (each
     evaluates `eval_episodes`); `train_return` the mean over devices of each device's mean
     training return (NaN where no device ended an episode); update metrics are equal on all
-    devices (device 0's)."""
+    devices (device 0's), as are the selection's returns, averaged over all devices' episodes
+    inside the program (`confirm_return`, `delivered_return`)."""
     returns = ("eval_return", "train_return")
     metrics = {name: jnp.nanmean(outputs[name], axis=0) for name in returns}
     metrics["env_steps"] = jnp.sum(outputs["env_steps"], axis=0)
-    metrics.update({name: outputs[name][0] for name in METRIC_NAMES})
+    metrics.update({name: outputs[name][0]
+                    for name in METRIC_NAMES + ("confirm_return", "delivered_return")})
     return metrics
 
 

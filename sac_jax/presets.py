@@ -38,15 +38,6 @@ PRESETS = {
         learning_starts=1_024, buffer_size=12_288, batch_size=256, eval_every=1_024,
         eval_episodes=5, tau=0.02, actor_lr=3e-3, critic_lr=3e-3, alpha_lr=1e-3,
         actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
-        log_prob_correction="exact"),
+        log_prob_correction="exact", stop_when_solved=True),
 }
 DEFAULT_PRESET = "fast"
-
-SOLVED_RETURN = {
-    "InvertedPendulum-v5": 950.0,
-    "InvertedPendulum-v4": 950.0,
-    "InvertedPendulumBullet-v0": 950.0,
-    "InvertedDoublePendulum-v5": 9000.0,
-    "Pendulum-v1": -250.0,
-}
-"""Mean deterministic evaluation return at which a task counts as solved."""

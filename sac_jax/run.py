@@ -28,7 +28,7 @@ from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import over_seed_axis, seeds_program
 from sac_jax.program_cache import cached_compile
-from sac_jax.presets import SOLVED_RETURN
+from envs import SOLVED_RETURN
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 
 FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
@@ -57,9 +57,10 @@ def _nanmean(values) -> float:
     return float(np.mean(finite)) if finite else float("nan")
 
 
-def solved_at(eval_returns: np.ndarray, env_steps: np.ndarray, threshold: float) -> Optional[int]:
-    """First environment step whose evaluation return reaches `threshold`, or None."""
-    hits = np.nonzero(eval_returns >= threshold)[0]
+def solved_at(returns: np.ndarray, env_steps: np.ndarray, threshold: float) -> Optional[int]:
+    """First environment step whose return (e.g. the delivered actor's) reaches `threshold`,
+    or None."""
+    hits = np.nonzero(returns >= threshold)[0]
     return int(env_steps[hits[0]]) if hits.size else None
 
 
@@ -117,18 +118,22 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  resume: Optional[tuple] = None,
                  on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
                  on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
-                 should_stop: Optional[Callable[[], bool]] = None) -> RunResult:
+                 should_stop: Optional[Callable[[], bool]] = None,
+                 started: Optional[float] = None) -> RunResult:
     """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split over the
-    local devices when they divide `seeds`) driven one chunk at a time.
+    local devices when they divide `seeds`) driven one chunk at a time. With
+    `config.stop_when_solved` the run ends as FINISHED once every seed has stopped.
 
     resume: `(state, position)` read from a checkpoint; the run continues from there.
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
         metrics averaged over seeds and each seed's evaluation return; for a task with a solved
-        threshold (`SOLVED_RETURN`), means["solved"] is the fraction of seeds whose evaluation
-        return has reached it at this or an earlier point.
+        threshold (`SOLVED_RETURN`), means["solved"] is the fraction of seeds whose delivered
+        actor has reached it (`delivered_return`), and means["stopped"] the fraction stopped.
     on_checkpoint(state, position): after every evaluation point and when stopping on request;
         the state is not touched afterwards until the call returns (save it there).
     should_stop(): polled after every chunk; True ends the run as INTERRUPTED.
+    started: `time.perf_counter()` at the start of the process, for the summary's times from
+        process start (default: this call's start).
     A parameter, optimiser state or temperature that becomes non-finite ends the run as
     NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good.
     """
@@ -138,12 +143,11 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     if resume is None:
         runner = init(jax.random.split(jax.random.key(seed), seeds))
         position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
-                    "walls": {}}
+                    "startup_s": t0 - (t0 if started is None else started), "walls": {}}
     else:
         runner, position = resume
         runner = jax.device_put(runner, sharding)
-        position = dict(position, walls=dict(position["walls"]),
-                        host_s=position.get("host_s", 0.0))
+        position = dict(position, walls=dict(position["walls"]))
     position["compile_s"] += time.perf_counter() - t0
     start = time.perf_counter() - position["run_s"]
     status, message = FINISHED, ""
@@ -152,8 +156,11 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         iterations = int(state.iteration)  # waits for the chunk
         return max(0, (iterations - config.prefill_iterations) // config.iterations_per_eval)
 
+    def all_stopped(state) -> bool:
+        return config.stop_when_solved and bool(np.all(jax.device_get(state.stopped)))
+
     points = points_done(runner)
-    while position["chunks_done"] < parts.num_chunks:
+    while position["chunks_done"] < parts.num_chunks and not all_stopped(runner):
         runner = chunk(runner)
         position["chunks_done"] += 1
         new_points = points_done(runner)
@@ -175,8 +182,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
             if on_point is not None:
                 means = {k: _nanmean(v) for k, v in point.items()}
                 if threshold is not None:
-                    means["solved"] = float(np.mean(np.any(
-                        outputs["eval_return"][:, :points] >= threshold, axis=1)))
+                    means["solved"] = float(np.mean(point["delivered_return"] >= threshold))
+                means["stopped"] = float(np.mean(jax.device_get(runner.stopped)))
                 on_point(step, means, np.asarray(point["eval_return"]), position["run_s"])
         stop = should_stop is not None and should_stop()
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
@@ -194,25 +201,49 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         walls[p] = position["walls"].get(str(int(step)), np.nan)
     metrics["wall_s"] = np.broadcast_to(walls, metrics["eval_return"].shape).copy()
     metrics["steps_per_s"] = metrics["env_steps"] / metrics["wall_s"]
+    summary = dict(run_summary(config, metrics, points, position,
+                               jax.device_get(runner.delivered.env_steps),
+                               jax.device_get(runner.stopped)),
+                   seeds=seeds, status=status, message=message)
+    return RunResult(runner, metrics, points, status, message, position, summary)
+
+
+def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, position: dict,
+                delivered_steps: np.ndarray, stopped: np.ndarray) -> dict:
+    """summary.json's figures of a run: per seed, the last evaluation of the last actor
+    (`eval_return`), the delivered actor's confirmed return (`delivered_return`) and the step
+    and training seconds at which it was selected, and the step, training seconds and seconds
+    from process start at which the delivered actor first reached the solved return (None
+    where it has not); for all seeds, the training and process seconds until the last of them
+    was solved (None unless all were)."""
+    threshold = SOLVED_RETURN.get(config.env)
     steps = metrics["env_steps"][0, :points]
-    returns = metrics["eval_return"][:, :points]
-    solved = [solved_at(r, steps, threshold) if threshold is not None else None for r in returns]
-    solved_mean = (solved_at(returns.mean(axis=0), steps, threshold)
-                   if threshold is not None and points else None)
-    summary = {
+    before_training = position["startup_s"] + position["compile_s"]
+    wall = lambda step: None if step is None else round(position["walls"][str(step)], 3)
+    process = lambda step: None if step is None else round(before_training + wall(step), 3)
+    last = lambda name: [float(r) for r in metrics[name][:, points - 1]] if points else []
+    selected = [int(s) if s >= 0 else None for s in np.ravel(delivered_steps)]
+    solved = [solved_at(r, steps, threshold) if threshold is not None else None
+              for r in metrics["delivered_return"][:, :points]]
+    slowest = (None if not solved or None in solved
+               else max(solved, key=lambda s: position["walls"][str(s)]))
+    return {
         "env": config.env,
-        "seeds": seeds,
-        "status": status,
-        "message": message,
         "total_steps": int(steps[-1]) if points else 0,
-        "eval_return": [float(r) for r in returns[:, -1]] if points else [],
+        "eval_return": last("eval_return"),
+        "delivered_return": last("delivered_return"),
+        "delivered_at_step": selected,
+        "delivered_wall_s": [wall(s) for s in selected],
         "solved_threshold": threshold,
         "solved_at_step": solved,
-        "solved_wall_s": (round(position["walls"][str(solved_mean)], 3)
-                          if solved_mean is not None else None),
+        "solved_wall_s": [wall(s) for s in solved],
+        "solved_process_s": [process(s) for s in solved],
+        "all_solved_wall_s": wall(slowest),
+        "all_solved_process_s": process(slowest),
+        "stopped": [bool(x) for x in np.ravel(stopped)],
+        "startup_s": round(position["startup_s"], 3),
         "compile_s": round(position["compile_s"], 3),
         "run_s": round(position["run_s"], 3),
         "host_s": round(position["host_s"], 3),
         "wall_s": round(position["compile_s"] + position["run_s"], 3),
     }
-    return RunResult(runner, metrics, points, status, message, position, summary)

@@ -205,20 +205,30 @@ class CheckpointWriter(_BackgroundWrites):
         self._submit(self._write_newest)
 
 
-def load_checkpoint(run_dir: str) -> Tuple[SACConfig, dict, RunnerState, dict]:
+def load_checkpoint(run_dir: str, earlier: bool = False
+                    ) -> Tuple[SACConfig, dict, RunnerState, dict]:
     """(config, run info, training state, position) of a run directory's checkpoint;
-    `RunDirError` (or its subclass `checkpoint.CheckpointError`) says what is wrong."""
+    `RunDirError` (or its subclass `checkpoint.CheckpointError`) says what is wrong. A
+    checkpoint of an earlier sac-jax (format 2, which kept no delivered actor) is refused,
+    unless `earlier`: then its state comes with `delivered` and `stopped` None."""
     config, info = read_config(run_dir)
     template = state_template(config, info["seeds"])
     capacity = config.buffer_size
+    path = os.path.join(run_dir, CHECKPOINT)
 
     def stored(meta):
         filled = meta["buffer_filled"]
         if isinstance(filled, bool) or not isinstance(filled, int) or not 0 <= filled <= capacity:
             raise ValueError(f"buffer_filled={filled!r} outside [0, {capacity}]")
+        if meta["format"] != checkpoint.FORMAT:
+            if not earlier:
+                raise checkpoint.CheckpointError(
+                    f"checkpoint {path}: written by an earlier sac-jax (format {meta['format']}) "
+                    "that kept no delivered policy; it cannot be resumed, train anew")
+            return _buffer_filled_to(template.replace(delivered=None, stopped=None), filled)
         return _buffer_filled_to(template, filled)
 
-    runner, meta = checkpoint.load(os.path.join(run_dir, CHECKPOINT), stored)
+    runner, meta = checkpoint.load(path, stored)
     pad = lambda x: np.concatenate(
         [x, np.zeros((x.shape[0], capacity - x.shape[1]) + x.shape[2:], x.dtype)], axis=1)
     data = jax.tree_util.tree_map(pad, runner.buffer.data)

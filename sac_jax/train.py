@@ -6,7 +6,11 @@ One `lax.scan` runs all iterations; iteration i:
     step      `envs.VectorEnv.step` (auto-reset), add the num_envs transitions to the buffer
     learn     after the prefill: updates_per_step `sac_update`s on freshly sampled batches
     evaluate  after every eval_every training steps: deterministic returns on separate
-              environment instances, and the period's metric means written to the outputs
+              environment instances, the selection of the delivered actor (`sac_jax.selection`:
+              the best confirmed evaluation so far), and the period's metric means written to
+              the outputs
+    stop      with `stop_when_solved`, a seed whose delivered actor is solved learns no more:
+              its learner state and delivered actor stay as they are
 
 The environment step, the update and the evaluation each appear once in the traced program
 (prefill and training share the iteration; phases switch with `lax.cond` on the iteration
@@ -41,6 +45,7 @@ import jax.numpy as jnp
 
 import envs
 from sac_jax import replay_buffer as rb
+from sac_jax import selection
 from sac_jax.agent import Agent, SACState, make_agent
 from sac_jax.config import SACConfig
 from sac_jax.evaluation import evaluate
@@ -48,6 +53,10 @@ from sac_jax.replay_buffer import ReplayBuffer, Transition
 from sac_jax.updates import sac_update, sample_noise
 
 METRIC_NAMES = ("critic_loss", "q", "actor_loss", "entropy", "alpha_loss", "alpha", "value_loss")
+EVAL_NAMES = ("eval_return", "confirm_return", "delivered_return")
+"""Per evaluation point: the current actor's mean return over `eval_episodes`; its confirmed
+return over `confirm_episodes` fresh episodes (NaN where it was no candidate); the confirmed
+return of the delivered actor after the point (`sac_jax.selection`)."""
 
 
 class Draws(flax.struct.PyTreeNode):
@@ -73,8 +82,10 @@ class Draws(flax.struct.PyTreeNode):
 class RunnerState(flax.struct.PyTreeNode):
     """Everything a run carries between iterations. `iteration` counts iterations done;
     `sums` accumulates the current evaluation period's metrics as (sum, count) pairs;
-    `outputs` holds one slot per evaluation point; `draws`, if not None, is the recorded
-    stream the iterations take their random draws from (indexed by `iteration`)."""
+    `outputs` holds one slot per evaluation point; `delivered` is the kept actor
+    (`sac_jax.selection`); `stopped` () bool, whether this seed has stopped learning
+    (`SACConfig.stop_when_solved`); `draws`, if not None, is the recorded stream the iterations
+    take their random draws from (indexed by `iteration`)."""
 
     sac: SACState
     env: envs.VectorState
@@ -83,6 +94,8 @@ class RunnerState(flax.struct.PyTreeNode):
     iteration: jax.Array
     sums: Dict[str, jax.Array]
     outputs: Dict[str, jax.Array]
+    delivered: selection.Delivered
+    stopped: jax.Array
     draws: Optional[Draws] = None
 
 
@@ -170,19 +183,39 @@ def make_train_parts(config: SACConfig,
         return sac, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
                      else nan for name in METRIC_NAMES}
 
+    def mean_return(actor_params, key: jax.Array, episodes: int) -> jax.Array:
+        """Mean deterministic return over `episodes` episodes (over all devices' episodes in a
+        data-parallel run, so every device selects alike)."""
+        returns = jnp.mean(evaluate(agent, env, actor_params, key, episodes))
+        axis = config.data_parallel_axis
+        return returns if axis is None else jax.lax.pmean(returns, axis)
+
     def evaluate_period(runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
         key, k_eval = jax.random.split(runner.key)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
-        with jax.named_scope("evaluate"):
-            out["eval_return"] = jnp.mean(
-                evaluate(agent, env, runner.sac.actor_params, k_eval, config.eval_episodes))
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
+        actor = runner.sac.actor_params
+        with jax.named_scope("evaluate"):
+            out["eval_return"] = mean_return(actor, k_eval, config.eval_episodes)
+            # the confirmation's episodes: a key no other evaluation draws from
+            delivered, out["confirm_return"] = selection.select(
+                runner.delivered, actor, out["eval_return"],
+                lambda: mean_return(actor, jax.random.fold_in(k_eval, 1),
+                                    config.confirm_episodes),
+                out["env_steps"])
+        stopped = runner.stopped
+        if config.stop_when_solved:
+            delivered = jax.tree_util.tree_map(
+                lambda old, new: jnp.where(stopped, old, new), runner.delivered, delivered)
+            stopped = stopped | (delivered.score >= envs.SOLVED_RETURN[config.env])
+        out["delivered_return"] = delivered.score
         if progress is not None:
             jax.debug.callback(progress, out)
         outputs = {name: runner.outputs[name].at[index].set(out[name]) for name in out}
         sums = jax.tree_util.tree_map(jnp.zeros_like, runner.sums)
-        return runner.replace(key=key, sums=sums, outputs=outputs)
+        return runner.replace(key=key, sums=sums, outputs=outputs, delivered=delivered,
+                              stopped=stopped)
 
     def iteration(runner: RunnerState, _):
         learning = runner.iteration >= prefill
@@ -207,6 +240,10 @@ def make_train_parts(config: SACConfig,
         sac, metrics = jax.lax.cond(
             learning, lambda sac: learn(sac, buffer, k_learn, recorded),
             lambda sac: (sac, {name: nan for name in METRIC_NAMES}), runner.sac)
+        if config.stop_when_solved:  # a stopped seed keeps its learner; the update count is shared
+            keep = lambda old, new: jnp.where(runner.stopped, old, new)
+            sac = jax.tree_util.tree_map(keep, runner.sac, sac).replace(step=sac.step)
+            metrics = {name: keep(nan, m) for name, m in metrics.items()}
         metrics["train_return"] = jnp.sum(jnp.where(step.done, step.episode_return, 0.0))
         counts = {name: jnp.isfinite(m).astype(jnp.float32) for name, m in metrics.items()}
         counts["train_return"] = jnp.sum(step.done).astype(jnp.float32)
@@ -245,13 +282,14 @@ def make_train_parts(config: SACConfig,
                              reward=jnp.float32(0), next_obs=env_state.env_state.obs[0],
                              terminated=jnp.float32(0))
         zero = jnp.float32(0)
+        sac = agent.init(k_sac)
         return RunnerState(
-            sac=agent.init(k_sac), env=env_state, buffer=rb.init(config.buffer_size, example),
+            sac=sac, env=env_state, buffer=rb.init(config.buffer_size, example),
             key=k_run, iteration=jnp.int32(0), sums={name: (zero, zero) for name in sum_names},
             outputs={"env_steps": jnp.zeros(config.num_evals, jnp.int32),
                      **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
-                        for name in sum_names + ("eval_return",)}},
-            draws=draws)
+                        for name in sum_names + EVAL_NAMES}},
+            delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False), draws=draws)
 
     return TrainParts(init, chunk, chunk_iterations, num_iterations // chunk_iterations,
                       record_draws)
@@ -287,9 +325,11 @@ def make_train(config: SACConfig,
     """Returns `train(key, draws=None) -> (RunnerState, metrics)`, the whole run as one scan.
 
     metrics: arrays with a leading axis of `config.num_evals` evaluation points:
-    `env_steps` (environment steps done), `eval_return` (mean deterministic return over
-    `eval_episodes`), `train_return` (mean return of training episodes ended in the period, NaN
-    if none), and the period means of the update metrics in `METRIC_NAMES` (NaN where unused).
+    `env_steps` (environment steps done), `eval_return`, `confirm_return` and
+    `delivered_return` (`EVAL_NAMES`), `train_return` (mean return of training episodes ended
+    in the period, NaN if none), and the period means of the update metrics in `METRIC_NAMES`
+    (NaN where unused, and after a seed stopped). The runner's `delivered.actor_params` is the
+    actor the run delivers (`sac_jax.selection`).
     `draws`, if given, is a recorded stream (`record_draws`) that replaces the PRNG draws of
     acting and learning; a stream of the wrong shape raises ValueError.
     `progress`, if given, is called on the host with each evaluation point's metrics (through

@@ -5,7 +5,8 @@
     python scripts/evaluate.py runs/pendulum --paired --json      # same initial states
 
 Runs the deterministic policy a = scale * tanh(mu(s)) + bias of one of the run's seeds
-(`sac_jax.load_policy`) for N episodes and prints the undiscounted return, mean ± std over the
+(`sac_jax.load_policy`: the delivered actor, or with `--policy last` the last update's) for N
+episodes and prints the undiscounted return, mean ± std over the
 episodes, of each environment:
     ours       `envs.make(env)`, the N episodes in parallel in one jitted `sac_jax.evaluate`
     gymnasium  `gymnasium.make(env)` (InvertedPendulum-v5/-v4, InvertedDoublePendulum-v5,
@@ -61,6 +62,9 @@ class EvaluateArgs:
     """Which of the run's seeds to evaluate, 0..seeds-1."""
     episode_seed: int = 0
     """PRNG seed of the episodes' initial states."""
+    policy: Literal["best", "last"] = "best"
+    """Which actor of the seed: "best", the delivered one (best confirmed evaluation), or
+    "last", the last update's."""
     which: Literal["ours", "gymnasium", "both"] = "both"
     """Environments to evaluate in."""
     paired: bool = False
@@ -142,7 +146,7 @@ def main(argv=None) -> int:
         config, _ = run_dir.read_config(args.run)
         gym_id = _gymnasium_id(config.env) if use_gym else None
         sac_jax.enable_compilation_cache()
-        policy = sac_jax.load_policy(args.run, args.seed)
+        policy = sac_jax.load_policy(args.run, args.seed, args.policy)
     except ValueError as error:  # also UsageError, RunDirError and CheckpointError
         return fail(error, 2)
     try:  # before anything is compiled
@@ -150,7 +154,7 @@ def main(argv=None) -> int:
     except MissingDependency as error:
         return fail(error, 1)
 
-    results = {"run": args.run, "env": config.env, "seed": args.seed,
+    results = {"run": args.run, "env": config.env, "seed": args.seed, "policy": policy.which,
                "episode_seed": args.episode_seed, "episodes": args.episodes}
     key = jax.random.key(args.episode_seed)
     env = envs.make(config.env)
@@ -172,7 +176,7 @@ def main(argv=None) -> int:
     if args.json:
         print(json.dumps(results))
         return 0
-    print(f"{config.env}, seed {args.seed} of {args.run}:")
+    print(f"{config.env}, seed {args.seed} of {args.run}, {policy.which} policy:")
     for name in ("ours", "gymnasium"):
         if name in results:
             r = results[name]

@@ -28,7 +28,7 @@ import importlib
 import os
 import sys
 import warnings
-from typing import Optional
+from typing import Literal, Optional
 
 GL_HELP = ("set MUJOCO_GL=egl (system package libegl1) or MUJOCO_GL=osmesa (libosmesa6) for "
            "headless rendering")
@@ -97,6 +97,9 @@ class RenderArgs:
     """Which of the run's seeds to render, 0..seeds-1."""
     episode_seed: int = 0
     """PRNG seed of the episode's initial state."""
+    policy: Literal["best", "last"] = "best"
+    """Which actor of the seed: "best", the delivered one (best confirmed evaluation), or
+    "last", the last update's."""
 
     def __post_init__(self):
         for name in ("steps", "fps", "width", "height"):
@@ -276,7 +279,7 @@ def main(argv=None) -> int:
         out = args.out or os.path.join(args.run, "episode.gif")
         _check_output(out, args.force)
         sac_jax.enable_compilation_cache()
-        policy = sac_jax.load_policy(args.run, args.seed)
+        policy = sac_jax.load_policy(args.run, args.seed, args.policy)
     except ValueError as error:  # also UsageError, RunDirError and CheckpointError
         return fail(error, 2)
     except MissingDependency as error:

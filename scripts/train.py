@@ -18,12 +18,15 @@ checkpoint. Bad input ends with one line on stderr and exit 2, before anything i
 
 from __future__ import annotations
 
+import time
+
+STARTED = time.perf_counter()  # process start, for the times to a solved policy
+
 import dataclasses
 import math
 import os
 import signal
 import sys
-import time
 from typing import Annotated, Literal, Optional, Sequence
 
 import tyro
@@ -94,19 +97,25 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
 
 
 def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
-    """One line per evaluation point; a value that is not defined at this point (e.g. no
-    training episode ended since the last evaluation) shows as "-". With several seeds and a
-    solved threshold, it ends with how many seeds have solved so far."""
+    """One line per evaluation point (means over seeds): the last actor's evaluation, the
+    delivered (best confirmed) actor's return, training return, temperature, losses, speed; a
+    value not defined at this point (e.g. no training episode ended since the last evaluation,
+    no update after every seed stopped) shows as "-". With a solved threshold it ends with how
+    many seeds' delivered actors are solved, and how many seeds have stopped learning."""
     def number(name, spec):
-        value = point[name]
+        value = point.get(name, math.nan)
         return format(value, spec) if math.isfinite(value) else "-".rjust(len(format(0.0, spec)))
 
-    solved = f" | solved {round(point['solved'] * seeds)}/{seeds}" if (
-        seeds > 1 and "solved" in point) else ""
-    return (f"step {step:>8d} | eval {number('eval_return', '9.1f')} | train "
-            f"{number('train_return', '9.1f')} | alpha {number('alpha', '.3f')} | critic "
-            f"{number('critic_loss', '.3g')} | actor {number('actor_loss', '.3g')} | "
-            f"{step * seeds / max(elapsed, 1e-9):8.0f} steps/s | {elapsed:6.1f} s{solved}")
+    solved = ""
+    if "solved" in point:
+        solved = f" | solved {round(point['solved'] * seeds)}/{seeds}"
+        if point.get("stopped"):
+            solved += f", stopped {round(point['stopped'] * seeds)}"
+    return (f"step {step:>8d} | eval {number('eval_return', '9.1f')} | delivered "
+            f"{number('delivered_return', '9.1f')} | train {number('train_return', '9.1f')} | "
+            f"alpha {number('alpha', '.3f')} | critic {number('critic_loss', '.3g')} | actor "
+            f"{number('actor_loss', '.3g')} | {step * seeds / max(elapsed, 1e-9):8.0f} steps/s "
+            f"| {elapsed:6.1f} s{solved}")
 
 
 def _new_run(args: TrainArgs):
@@ -123,7 +132,8 @@ def _resumed_run(args: TrainArgs):
     """(config, run info, run directory, (state, position)) of the run in `--resume`."""
     config, info, state, position = run_dir.load_checkpoint(args.resume)
     from sac_jax.train import make_train_parts
-    if position["chunks_done"] >= make_train_parts(config).num_chunks:
+    if position["chunks_done"] >= make_train_parts(config).num_chunks or (
+            config.stop_when_solved and all(state.stopped)):
         raise ValueError(f"--resume={args.resume}: this run already finished")
     return config, info, args.resume, (state, position)
 
@@ -144,16 +154,27 @@ class _StopRequest:
 
 
 def _outcome(summary: dict) -> str:
-    returns, solved = summary["eval_return"], summary["solved_at_step"]
-    if len(returns) <= 8:
-        return (f"final eval return per seed {[round(r, 1) for r in returns]}; "
-                f"solved at step {solved}")
+    """What the run delivers: the delivered actors' confirmed returns, and when they were
+    solved (per seed for up to 8 seeds, else a count and the time the last one was)."""
+    returns, solved = summary["delivered_return"], summary["solved_at_step"]
     threshold = summary["solved_threshold"]
-    reached = sum(r >= threshold for r in returns) if threshold is not None else "-"
-    return (f"final eval return mean {sum(returns) / len(returns):.1f} (min "
-            f"{min(returns):.1f}, max {max(returns):.1f}); {reached}/{len(returns)} seeds at >= "
-            f"{threshold} at the end, {sum(x is not None for x in solved)} solved at some "
-            "evaluation")
+    if len(returns) <= 8:
+        text = f"delivered policy return per seed {[round(r, 1) for r in returns]}"
+        if threshold is None:
+            return text
+        if None in solved:
+            return text + f"; solved (>= {threshold:g}) at step {solved}"
+        return (text + f"; solved at step {solved}, after {summary['solved_wall_s']} s of "
+                f"training ({summary['solved_process_s']} s from process start)")
+    text = (f"delivered policy return mean {sum(returns) / len(returns):.1f} (min "
+            f"{min(returns):.1f}, max {max(returns):.1f})")
+    if threshold is None:
+        return text
+    text += f"; {sum(x is not None for x in solved)}/{len(returns)} seeds solved (>= {threshold:g})"
+    if summary["all_solved_wall_s"] is not None:
+        text += (f", the last after {summary['all_solved_wall_s']} s of training "
+                 f"({summary['all_solved_process_s']} s from process start)")
+    return text
 
 
 def _write_results(out: str, config, info: dict, result: RunResult) -> None:
@@ -192,7 +213,8 @@ def main(argv=None) -> int:
     try:
         result = run_training(
             config, seeds=seeds, seed=info["seed"], resume=resume, on_point=on_point,
-            on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None)
+            on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
+            started=STARTED)
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
@@ -201,8 +223,8 @@ def main(argv=None) -> int:
     _write_results(out, config, info, result)
     s = result.summary
     if result.status == FINISHED:
-        print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; {_outcome(s)} (mean over "
-              f"seeds solved after {s['solved_wall_s']} s of training); wrote {out}", flush=True)
+        print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; {_outcome(s)}; wrote "
+              f"{out}", flush=True)
         return 0
     if result.status == INTERRUPTED:
         print(f"{result.message}; checkpoint saved: continue with --resume {out}",

@@ -22,12 +22,13 @@ def runs(tmp_path_factory):
             "two_seeds": untrained(str(root / "two_seeds"), "Pendulum-v1", seeds=2)}
 
 
-def _stored_actions(path, seed, obs):
+def _stored_actions(path, seed, obs, which="best"):
     """`Agent.act` (jitted, no key: deterministic) on the actor parameters of `seed` read
-    straight from the checkpoint."""
+    straight from the checkpoint: the delivered actor's ("best") or the learner's ("last")."""
     config, _, runner, _ = run_dir.load_checkpoint(path)
     agent, _ = agent_for(config)
-    params = jax.tree_util.tree_map(lambda x: x[seed], runner.sac.actor_params)
+    actor = runner.delivered.actor_params if which == "best" else runner.sac.actor_params
+    params = jax.tree_util.tree_map(lambda x: x[seed], actor)
     return np.asarray(jax.jit(agent.act)(params, obs))
 
 
@@ -47,6 +48,48 @@ def test_actions_are_agent_act_on_the_stored_parameters(runs):
     assert single.shape == (1,)
     np.testing.assert_array_equal(single, _stored_actions(runs["trained"], 0, obs[3]))
     assert np.all(np.abs(actions) <= 2.0) and np.ptp(actions) > 0  # Pendulum's torque bound
+
+
+def test_the_delivered_actor_by_default_the_last_one_on_request(tmp_path, runs):
+    """In a copy of the trained run, the delivered actor is planted as half the learner's
+    parameters, so the two policies differ; each loads its own."""
+    path = str(tmp_path / "planted")
+    shutil.copytree(runs["trained"], path)
+    _, _, runner, position = run_dir.load_checkpoint(path)
+    half = jax.tree_util.tree_map(lambda x: x / 2, runner.sac.actor_params)
+    planted = runner.replace(delivered=runner.delivered.replace(actor_params=half))
+    run_dir.save_checkpoint(path, planted, position)
+    obs = _observations(16)
+    best, last = (sac_jax.load_policy(path, which=w) for w in ("best", "last"))
+    assert (best.which, last.which) == ("best", "last")
+    np.testing.assert_array_equal(best(obs), _stored_actions(path, 0, obs, "best"))
+    np.testing.assert_array_equal(last(obs), _stored_actions(path, 0, obs, "last"))
+    np.testing.assert_array_equal(sac_jax.load_policy(path)(obs), best(obs))
+    assert not np.allclose(best(obs), last(obs))
+    with pytest.raises(ValueError, match="which='first': must be 'best' or 'last'"):
+        sac_jax.load_policy(path, which="first")
+
+
+def test_a_run_of_an_earlier_sac_jax_delivers_its_last_actor_with_a_warning(tmp_path, runs):
+    """A format-2 checkpoint (the state without the delivered actor and stop flags) loads its
+    last actor and says so; resuming it is refused in one line."""
+    old = str(tmp_path / "old")
+    shutil.copytree(runs["trained"], old)
+    config, _, runner, position = run_dir.load_checkpoint(old)
+    leaves, filled = run_dir._checkpoint_leaves(runner.replace(delivered=None, stopped=None))
+    checkpoint.save(os.path.join(old, run_dir.CHECKPOINT), leaves,
+                    {"position": position, "buffer_filled": filled})
+    with open(os.path.join(old, run_dir.CHECKPOINT), "r+b") as f:  # format 3 -> 2
+        data = f.read().replace(b"\xa6format\x03", b"\xa6format\x02")
+        f.seek(0)
+        f.write(data)
+    with pytest.warns(UserWarning, match="earlier sac-jax, which kept no delivered policy"):
+        policy = sac_jax.load_policy(old)
+    obs = _observations(4)
+    assert policy.which == "last"
+    np.testing.assert_array_equal(policy(obs), _stored_actions(runs["trained"], 0, obs, "last"))
+    with pytest.raises(checkpoint.CheckpointError, match="format 2.*cannot be resumed"):
+        run_dir.load_checkpoint(old)
 
 
 def test_seed_selects_that_seeds_actor(runs):

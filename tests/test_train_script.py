@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import sac_jax
-from sac_jax.presets import SOLVED_RETURN
+from envs import SOLVED_RETURN
 
 from scripts import train as train_script
 
@@ -88,10 +88,18 @@ def test_progress_line_shows_undefined_values_as_a_dash():
     assert "eval    1000.0" in line and "train         -" in line and "alpha 0.016" in line
 
 
-def test_progress_line_counts_the_seeds_solved_with_several_seeds():
-    point = {"eval_return": 980.0, "train_return": 900.0, "alpha": 0.02, "critic_loss": 2.0,
-             "actor_loss": -40.0, "solved": 0.75}
-    assert train_script._progress_line(7168, point, 256, 4.3).endswith(" s | solved 192/256")
+def test_progress_line_counts_the_seeds_solved_and_stopped():
+    point = {"eval_return": 980.0, "delivered_return": 990.0, "train_return": 900.0,
+             "alpha": 0.02, "critic_loss": 2.0, "actor_loss": -40.0, "solved": 0.75,
+             "stopped": 0.0}
+    line = train_script._progress_line(7168, point, 256, 4.3)
+    assert line.endswith(" s | solved 192/256") and "delivered     990.0" in line
+    point.update(stopped=0.5)
+    assert train_script._progress_line(7168, point, 256, 4.3).endswith(
+        " s | solved 192/256, stopped 128")
+    assert train_script._progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1,
+                                       1.7).endswith(" s | solved 1/1, stopped 1")
+    del point["solved"]  # a task without a solved return
     assert "solved" not in train_script._progress_line(7168, point, 1, 1.7)
 
 
@@ -145,7 +153,15 @@ def test_a_finished_run_directory_holds_every_output(runs):
     summary = json.load(open(os.path.join(runs["whole"], "summary.json")))
     assert summary["status"] == "finished" and summary["preset"] == "pendulum"
     assert summary["total_steps"] == 4000 and len(summary["eval_return"]) == 1
-    assert {"env", "seeds", "solved_at_step", "wall_s", "compile_s"} <= set(summary)
+    assert {"env", "seeds", "solved_at_step", "solved_wall_s", "solved_process_s",
+            "delivered_return", "delivered_at_step", "delivered_wall_s", "stopped", "wall_s",
+            "compile_s"} <= set(summary)
+    rows = _metrics(runs["whole"])
+    # the delivered actor: the point that set the running maximum of the confirmed returns
+    delivered = [float(r["delivered_return"]) for r in rows]
+    assert summary["delivered_return"] == [delivered[-1]]
+    assert summary["delivered_at_step"] == [
+        int(rows[delivered.index(delivered[-1])]["env_steps"])]
     rows = _metrics(runs["whole"])
     assert [int(r["env_steps"]) for r in rows] == [2000, 3000, 4000]
     assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
@@ -170,10 +186,11 @@ def test_tensorboard_events_hold_every_evaluation_point(runs):
     csv_returns = [float(r["eval_return"]) for r in _metrics(runs["whole"])]
     assert [step for step, _ in points] == [2000, 3000, 4000]
     np.testing.assert_allclose([value for _, value in points], csv_returns, rtol=1e-6)
-    # one seed: solved so far is 1 from its first evaluation at the threshold on
+    # one seed: solved is 1 from the point its delivered actor reached the threshold on
     solved = [value for _, value in _scalars(os.path.join(runs["whole"], "tensorboard"),
                                                "mean/solved")]
-    assert solved == list(np.maximum.accumulate(np.array(csv_returns) >= SOLVED_RETURN["Pendulum-v1"]).astype(float))
+    delivered = np.array([float(r["delivered_return"]) for r in _metrics(runs["whole"])])
+    assert solved == list((delivered >= SOLVED_RETURN["Pendulum-v1"]).astype(float))
 
 
 def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
