@@ -66,8 +66,11 @@ class SACConfig:
     scores above the kept one: it replaces the kept (delivered) actor only if its confirmed
     return is higher too (`sac_jax.selection`)."""
     stop_when_solved: bool = False
-    """End a seed's learning once its delivered actor's confirmed return reaches the task's
-    solved return (`envs.SOLVED_RETURN`); the run ends when every seed has stopped."""
+    """End a seed's learning once its delivered actor's confirmed return reaches `stop_return`;
+    the run ends when every seed has stopped."""
+    stop_return: Optional[float] = None
+    """Confirmed return at which `stop_when_solved` stops a seed; None: the task's solved
+    return (`envs.SOLVED_RETURN`)."""
 
     # --- objective ---
     gamma: float = 0.99
@@ -200,7 +203,7 @@ class SACConfig:
             fail("tau", "must lie in (0, 1]")
         if self.log_std_min >= self.log_std_max:
             fail("log_std_min", f"must be below log_std_max={self.log_std_max}")
-        for field in ("log_alpha_init", "target_entropy", "last_layer_init"):
+        for field in ("log_alpha_init", "target_entropy", "last_layer_init", "stop_return"):
             value = getattr(self, field)
             if value is not None and not math.isfinite(value):
                 fail(field, "must be finite or None")
@@ -227,8 +230,8 @@ class SACConfig:
         if self.update_order not in UPDATE_ORDERS[self.variant]:
             fail("update_order", f"for variant {self.variant!r} must be one of "
                  f"{sorted(UPDATE_ORDERS[self.variant])}")
-        if self.stop_when_solved and envs.SOLVED_RETURN.get(self.env) is None:
-            fail("stop_when_solved", f"{self.env} has no solved return to stop at")
+        if self.stop_when_solved and self.stop_at is None:
+            fail("stop_when_solved", f"{self.env} has no solved return to stop at; set stop_return")
         if self.variant == "v1" and self.learn_alpha:
             fail("learn_alpha", "SAC v1 uses a fixed temperature (and reward_scale); set False")
 
@@ -242,6 +245,20 @@ class SACConfig:
     def num_evals(self) -> int:
         """Evaluations in a run; each follows `eval_every` environment steps of training."""
         return (self.total_steps - self.learning_starts) // self.eval_every
+
+    @property
+    def stop_at(self) -> Optional[float]:
+        """The confirmed return at which `stop_when_solved` stops a seed (see `stop_return`)."""
+        import envs
+
+        return self.stop_return if self.stop_return is not None else envs.SOLVED_RETURN.get(
+            self.env)
+
+    @property
+    def run_steps(self) -> int:
+        """Environment steps a whole run takes: the prefill and `num_evals` whole evaluation
+        periods (at most `total_steps`)."""
+        return self.learning_starts + self.num_evals * self.eval_every
 
     @property
     def prefill_iterations(self) -> int:

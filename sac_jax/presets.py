@@ -4,8 +4,10 @@
     v1        seeds 000/003: SAC v1 (value network, reward scale 2, fixed alpha = 1) on the
               Bullet-style InvertedPendulum, seed 000's update order V -> pi -> Q -> V-bar
     pendulum  seed 001: SAC v2 on Pendulum-v1 with 3x64 networks and its temperature handling
-    fast      InvertedPendulum-v5, tuned by measurement for wall-clock time to an evaluation
-              return of 950 on 2 CPU cores (BENCHMARKS.md)
+    fast      InvertedPendulum-v5, tuned by measurement for wall-clock time to a delivered
+              policy that solves the task on 2 CPU cores (BENCHMARKS.md); each seed stops
+              once its delivered actor's confirmation scores 1000 of 1000 on all 20 episodes
+              (a confirmed 955 delivered 911 in Gymnasium), within a budget of 20,480 steps
 """
 
 from sac_jax.config import SACConfig
@@ -34,10 +36,10 @@ PRESETS = {
         log_std_max=2.0, log_prob_correction="epsilon", alpha_init=0.5, log_alpha_init=0.0,
         alpha_loss="log_alpha", alpha_log_prob="reuse"),
     "fast": SACConfig(
-        env="InvertedPendulum-v5", num_envs=8, updates_per_step=4, total_steps=12_288,
-        learning_starts=1_024, buffer_size=12_288, batch_size=256, eval_every=1_024,
+        env="InvertedPendulum-v5", num_envs=8, updates_per_step=4, total_steps=20_480,
+        learning_starts=1_024, buffer_size=20_480, batch_size=256, eval_every=1_024,
         eval_episodes=5, tau=0.02, actor_lr=3e-3, critic_lr=3e-3, alpha_lr=1e-3,
         actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
-        log_prob_correction="exact", stop_when_solved=True),
+        log_prob_correction="exact", stop_when_solved=True, stop_return=1000.0),
 }
 DEFAULT_PRESET = "fast"

@@ -208,7 +208,7 @@ def make_train_parts(config: SACConfig,
         if config.stop_when_solved:
             delivered = jax.tree_util.tree_map(
                 lambda old, new: jnp.where(stopped, old, new), runner.delivered, delivered)
-            stopped = stopped | (delivered.score >= envs.SOLVED_RETURN[config.env])
+            stopped = stopped | (delivered.score >= config.stop_at)
         out["delivered_return"] = delivered.score
         if progress is not None:
             jax.debug.callback(progress, out)

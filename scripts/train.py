@@ -198,9 +198,12 @@ def main(argv=None) -> int:
     if args.cache:
         sac_jax.enable_compilation_cache(args.cache_dir)
     seeds = info["seeds"]
+    budget = (f"up to {config.run_steps} steps each (a seed stops once its delivered policy "
+              f"is confirmed at {config.stop_at:g})" if config.stop_when_solved
+              else f"{config.run_steps} steps each")
     print(f"{'resuming' if resume else 'preset'} {info['preset']} on {config.env}: {seeds} "
-          f"seed(s), {config.total_steps} steps each, {config.num_envs} envs, "
-          f"{config.updates_per_step} updates/iteration -> {out}", flush=True)
+          f"seed(s), {budget}, {config.num_envs} envs, {config.updates_per_step} "
+          f"updates/iteration -> {out}", flush=True)
     tensorboard = run_dir.TensorBoard(out)
 
     def on_point(step, means, eval_returns, elapsed):

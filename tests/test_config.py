@@ -14,6 +14,7 @@ BAD_VALUES = [
     ("updates_per_step", 0, "positive integer"),
     ("buffer_size", 0, "positive integer"),
     ("eval_episodes", 0, "positive integer"),
+    ("confirm_episodes", 0, "positive integer"),
     ("policy_frequency", 0, "positive integer"),
     ("num_critics", 0, "positive integer"),
     ("tau", 0.0, r"\(0, 1\]"),
@@ -99,3 +100,17 @@ def test_presets_are_valid_and_derived_sizes_consistent(name):
     assert config.prefill_iterations * config.num_envs == config.learning_starts
     assert config.num_evals >= 1
     assert config.replace() == config
+
+
+def test_stop_return_defaults_to_the_tasks_solved_return():
+    import envs
+    config = SACConfig(env="Pendulum-v1", stop_when_solved=True)
+    assert config.stop_at == envs.SOLVED_RETURN["Pendulum-v1"]
+    assert config.replace(stop_return=-100.0).stop_at == -100.0
+    with pytest.raises(ValueError, match=r"SACConfig.stop_return=nan: must be finite or None"):
+        config.replace(stop_return=float("nan"))
+
+
+def test_run_steps_is_what_a_run_takes():
+    """v1: 20000 total steps of which 1000 prefill and three whole periods of 5000 run."""
+    assert PRESETS["v1"].run_steps == 16_000 and PRESETS["fast"].run_steps == 20_480

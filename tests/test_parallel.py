@@ -111,8 +111,8 @@ def test_one_seed_program_is_the_function_between_taking_and_restoring_the_seed_
 def test_local_config_divides_the_sizes_and_keeps_the_schedule():
     config = PRESETS["fast"]
     local = parallel.local_config(config, 4)
-    assert (local.num_envs, local.batch_size, local.buffer_size) == (2, 64, 3_072)
-    assert (local.learning_starts, local.eval_every, local.total_steps) == (256, 256, 3_072)
+    assert (local.num_envs, local.batch_size, local.buffer_size) == (2, 64, 5_120)
+    assert (local.learning_starts, local.eval_every, local.total_steps) == (256, 256, 5_120)
     assert local.num_evals == config.num_evals
     assert local.prefill_iterations == config.prefill_iterations
     assert local.iterations_per_eval == config.iterations_per_eval

@@ -1,0 +1,141 @@
+"""What the README's command delivers: for several `--seed` values, and for one run of many
+seeds, the time to a solved delivered policy and that policy's return in Gymnasium's real
+environment.
+
+    python -m benchmarks.delivered                       # seeds 0-9 one by one, then --seeds 32
+    python -m benchmarks.delivered --seeds 0 1 2 --many 8 --cold
+
+Each run is `python scripts/train.py --seed N --out DIR` (the README's first command, the
+`fast` preset) in its own process, with the compilation cache warm (a first run warms it;
+`--cold` also times one run from an empty cache directory). From each run directory's
+summary.json: the seconds from process start and of training until the delivered policy was
+solved (`solved_process_s`, `solved_wall_s`), and its confirmed return; then the delivered
+policy of every seed is evaluated over `--episodes` episodes of Gymnasium's
+InvertedPendulum-v5 (`scripts/evaluate.py`'s `gymnasium_returns`). Writes
+benchmarks/results/delivered.json (command, machine, versions, date, every figure).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from benchmarks.provenance import provenance, write_result
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def train(out: str, *flags: str, cache_dir: str = None) -> dict:
+    """Runs the README's command into `out`; its summary.json with the process's wall time."""
+    argv = [sys.executable, os.path.join(ROOT, "scripts", "train.py"), "--out", out, *flags]
+    if cache_dir:
+        argv += ["--cache-dir", cache_dir]
+    start = time.perf_counter()
+    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    if proc.returncode:
+        raise SystemExit(f"{' '.join(argv)} failed:\n{proc.stderr[-2000:]}")
+    with open(os.path.join(out, "summary.json")) as f:
+        return dict(json.load(f), process_wall_s=round(wall, 3))
+
+
+def gymnasium_scores(run: str, seeds: int, episodes: int) -> list:
+    """Mean return over `episodes` Gymnasium episodes of each seed's delivered policy."""
+    import gymnasium
+
+    import sac_jax
+    from scripts.evaluate import gymnasium_returns
+
+    env = gymnasium.make("InvertedPendulum-v5")
+    try:
+        return [float(np.mean(gymnasium_returns(sac_jax.load_policy(run, s), env, episodes,
+                                                seed=1000 + s)))
+                for s in range(seeds)]
+    finally:
+        env.close()
+
+
+def our_scores(run: str, seeds: int, episodes: int) -> list:
+    """Mean return over `episodes` episodes of our InvertedPendulum-v5 (which steps as
+    Gymnasium's does, tests/test_envs.py) of each seed's delivered policy, all seeds in one
+    jitted `sac_jax.evaluate`, from initial states no training evaluation drew."""
+    import jax
+
+    import envs
+    import sac_jax
+    from sac_jax import run_dir
+
+    policy = sac_jax.load_policy(run, 0)
+    _, _, runner, _ = run_dir.load_checkpoint(run)
+    env = envs.make(policy.config.env)
+    evaluate = jax.jit(jax.vmap(lambda params, key: jax.numpy.mean(
+        sac_jax.evaluate(policy.agent, env, params, key, episodes))))
+    keys = jax.random.split(jax.random.key(20261125), seeds)
+    return [float(x) for x in evaluate(runner.delivered.actor_params, keys)]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=list(range(10)))
+    parser.add_argument("--many", type=int, default=32, help="seeds of the one many-seed run")
+    parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--cold", action="store_true", help="also one run from an empty cache")
+    parser.add_argument("--judge", choices=("gymnasium", "ours"), default="gymnasium",
+                        help="where the many-seed run's delivered policies are evaluated (ours: "
+                        "all seeds at once on the device, for hundreds of seeds)")
+    args = parser.parse_args()
+    root = tempfile.mkdtemp(prefix="delivered-")
+    result = {"runs": [], "many": None, "cold": None}
+    train(os.path.join(root, "warmup"))  # the compilation cache holds the program from here on
+    for seed in args.seeds:
+        out = os.path.join(root, f"seed{seed}")
+        summary = train(out, "--seed", str(seed))
+        score = gymnasium_scores(out, 1, args.episodes)[0]
+        row = {"seed": seed, "solved_process_s": summary["solved_process_s"][0],
+               "solved_wall_s": summary["solved_wall_s"][0],
+               "solved_at_step": summary["solved_at_step"][0],
+               "delivered_return": summary["delivered_return"][0],
+               "process_wall_s": summary["process_wall_s"], "gymnasium_return": score}
+        print(json.dumps(row), flush=True)
+        result["runs"].append(row)
+    if args.many:
+        out = os.path.join(root, "many")
+        summary = train(out, "--seeds", str(args.many), "--seed", "777")
+        scores = (gymnasium_scores if args.judge == "gymnasium" else our_scores)(
+            out, args.many, args.episodes)
+        result["many"] = {"seeds": args.many, "seed": 777, "judged_in": args.judge,
+                          "all_solved_process_s": summary["all_solved_process_s"],
+                          "all_solved_wall_s": summary["all_solved_wall_s"],
+                          "solved": sum(s is not None for s in summary["solved_at_step"]),
+                          "process_wall_s": summary["process_wall_s"],
+                          "delivered_return": summary["delivered_return"],
+                          "return": scores, "at_least_950": sum(s >= 950 for s in scores)}
+        print(json.dumps(result["many"]), flush=True)
+    if args.cold:
+        out = os.path.join(root, "cold")
+        summary = train(out, cache_dir=tempfile.mkdtemp(prefix="cache-", dir=root))
+        result["cold"] = {"solved_process_s": summary["solved_process_s"][0],
+                          "compile_s": summary["compile_s"],
+                          "process_wall_s": summary["process_wall_s"],
+                          "gymnasium_return": gymnasium_scores(out, 1, args.episodes)[0]}
+        print(json.dumps(result["cold"]), flush=True)
+    runs = result["runs"]
+    if runs:  # an unsolved run counts as never solved
+        times = [np.inf if r["solved_process_s"] is None else r["solved_process_s"] for r in runs]
+        result["warm"] = {
+            "median_solved_process_s": float(np.median(times)),
+            "max_solved_process_s": float(np.max(times)),
+            "gymnasium_at_least_950": sum(r["gymnasium_return"] >= 950 for r in runs),
+            "seeds": len(runs)}
+    write_result("delivered", result, provenance())
+
+
+if __name__ == "__main__":
+    main()
