@@ -27,7 +27,7 @@ import dataclasses
 import json
 import os
 import sys
-from typing import Literal
+from typing import Literal, Optional
 
 import numpy as np
 import tyro
@@ -65,8 +65,8 @@ class EvaluateArgs:
     policy: Literal["best", "last"] = "best"
     """Which actor of the seed: "best", the delivered one (best confirmed evaluation), or
     "last", the last update's."""
-    which: Literal["ours", "gymnasium", "both"] = "both"
-    """Environments to evaluate in."""
+    which: Optional[Literal["ours", "gymnasium", "both"]] = None
+    """Environments to evaluate in (default: both where Gymnasium has the task, else ours)."""
     paired: bool = False
     """Start Gymnasium's episodes from ours' initial states (needs --which both)."""
     json: bool = False
@@ -74,7 +74,7 @@ class EvaluateArgs:
 
     def __post_init__(self):
         positive("episodes", self.episodes)
-        if self.paired and self.which != "both":
+        if self.paired and self.which not in (None, "both"):
             raise ValueError(f"--paired compares ours with Gymnasium: needs --which both, "
                              f"not {self.which}")
 
@@ -142,8 +142,9 @@ def _summary(returns: np.ndarray) -> dict:
 def main(argv=None) -> int:
     try:
         args = parse(EvaluateArgs, argv, description=__doc__)
-        use_ours, use_gym = args.which in ("ours", "both"), args.which in ("gymnasium", "both")
         config, _ = run_dir.read_config(args.run)
+        which = args.which or ("both" if config.env in GYMNASIUM_IDS or args.paired else "ours")
+        use_ours, use_gym = which in ("ours", "both"), which in ("gymnasium", "both")
         gym_id = _gymnasium_id(config.env) if use_gym else None
         sac_jax.enable_compilation_cache()
         policy = sac_jax.load_policy(args.run, args.seed, args.policy)

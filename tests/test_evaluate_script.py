@@ -17,7 +17,7 @@ import sac_jax
 from sac_jax import run_dir
 from sac_jax.train import agent_for
 from scripts import evaluate as evaluate_script
-from tests.saved_runs import fails_in_one_line, trained_pendulum
+from tests.saved_runs import fails_in_one_line, trained_pendulum, untrained
 
 PAIRED_TOLERANCE = 0.1
 """|ours - Gymnasium| per Pendulum-v1 episode from the same initial state (returns ~ -1e3):
@@ -115,5 +115,13 @@ def test_environment_without_a_gymnasium_twin(tmp_path, capsys):
     run_dir.create(path, sac_jax.PRESETS["v1"], preset="v1", seeds=1, seed=0)
     assert sac_jax.PRESETS["v1"].env == "InvertedPendulumBullet-v0"
     assert "InvertedPendulumBullet-v0" in envs.registered()
-    _fails(capsys, [path], 2, "InvertedPendulumBullet-v0 has no Gymnasium counterpart")
+    _fails(capsys, [path, "--which", "both"], 2,
+           "InvertedPendulumBullet-v0 has no Gymnasium counterpart")
     _fails(capsys, [path, "--which", "gymnasium"], 2, "use --which ours")
+
+
+def test_a_task_without_a_gymnasium_twin_is_evaluated_in_ours_by_default(tmp_path, capsys):
+    path = untrained(str(tmp_path / "bullet"), "InvertedPendulumBullet-v0")
+    assert evaluate_script.main([path, "--episodes", "2", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert "ours" in result and "gymnasium" not in result
