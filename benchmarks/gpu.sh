@@ -18,6 +18,8 @@
 #        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
+#        bash benchmarks/gpu.sh presets [presets_delivered.py flags] (4 seeds of each preset,
+#          every delivered policy scored in Gymnasium; the same wheels as delivered)
 #        bash benchmarks/gpu.sh delivered [benchmarks/delivered.py flags, e.g. --cold] (the
 #          README's command, seeds 0, 1, 2 one at a time and 256 seeds in one run, judged on
 #          the device; delivered.json comes back in $OUT). Its wheels (no brax): mujoco,
@@ -77,6 +79,11 @@ gymnasium.make('InvertedPendulum-v5').close()" || exit 1
     python3 -m benchmarks.delivered --seeds 0 1 2 --many 256 --judge ours "$@"; rc=$?
     cat benchmarks/results/delivered.json
     if [ -n "${OUT:-}" ]; then cp benchmarks/results/delivered.json "$OUT/"; fi
+    exit $rc ;;
+  presets)
+    rm -f benchmarks/results/presets_delivered.json
+    python3 -m benchmarks.presets_delivered "$@"; rc=$?
+    if [ -n "${OUT:-}" ]; then cp benchmarks/results/presets_delivered.json "$OUT/"; fi
     exit $rc ;;
   *)
     echo "unknown mode $mode"; exit 2 ;;

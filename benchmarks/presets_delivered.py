@@ -1,0 +1,88 @@
+"""Does every preset deliver? Trains N seeds of each named configuration in one run each and
+scores every seed's delivered policy over 10 episodes of Gymnasium's twin of the task (our
+environment, from fresh initial states, where Gymnasium has no twin: the Bullet-style
+pendulum of `v1`), against the task's solved return.
+
+    python -m benchmarks.presets_delivered                         # cleanrl, pendulum, v1, idp
+    python -m benchmarks.presets_delivered --runs pendulum --seeds 2
+
+A run is a preset, or `idp`: the `fast` preset on InvertedDoublePendulum-v5 with the budget
+`--idp-steps`. Writes benchmarks/results/presets_delivered.json (command, machine, versions,
+date, every seed's score).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import jax
+import numpy as np
+
+import envs
+import sac_jax
+from benchmarks.provenance import provenance, write_result
+from sac_jax.run import run_training
+from sac_jax.saved_policy import SavedPolicy
+from sac_jax.train import agent_for
+from scripts.evaluate import GYMNASIUM_IDS, gymnasium_returns
+
+
+def config_of(name: str, idp_steps: int, confirm_episodes: int) -> sac_jax.SACConfig:
+    if name == "idp":
+        return sac_jax.PRESETS["fast"].replace(
+            env="InvertedDoublePendulum-v5", total_steps=idp_steps, buffer_size=idp_steps,
+            stop_return=None, confirm_episodes=confirm_episodes)
+    return sac_jax.PRESETS[name]
+
+
+def score(policy: SavedPolicy, episodes: int, seed: int) -> float:
+    """Mean return over `episodes` episodes in Gymnasium's twin, else in ours."""
+    env_name = policy.config.env
+    if env_name in GYMNASIUM_IDS:
+        import gymnasium
+        env = gymnasium.make(GYMNASIUM_IDS[env_name])
+        try:
+            return float(np.mean(gymnasium_returns(policy, env, episodes, seed)))
+        finally:
+            env.close()
+    returns = sac_jax.evaluate(policy.agent, envs.make(env_name), policy.actor_params,
+                               jax.random.key(seed), episodes)
+    return float(np.mean(returns))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", nargs="+", default=["cleanrl", "pendulum", "v1", "idp"])
+    parser.add_argument("--seeds", type=int, default=4)
+    parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--idp-steps", type=int, default=102_400)
+    parser.add_argument("--idp-confirm-episodes", type=int, default=20)
+    args = parser.parse_args()
+    sac_jax.enable_compilation_cache()
+    results = {}
+    for name in args.runs:
+        config = config_of(name, args.idp_steps, args.idp_confirm_episodes)
+        start = time.perf_counter()
+        result = run_training(config, seeds=args.seeds)
+        agent, _ = agent_for(config)
+        scores = [score(SavedPolicy(config, {}, s, agent, jax.tree_util.tree_map(
+            lambda x: x[s], result.state.delivered.actor_params)), args.episodes, 1000 + s)
+            for s in range(args.seeds)]
+        threshold = envs.SOLVED_RETURN[config.env]
+        results[name] = {
+            "env": config.env, "judged_in": "gymnasium" if config.env in GYMNASIUM_IDS else "ours",
+            "threshold": threshold, "scores": scores,
+            "solved": sum(s >= threshold for s in scores), "seeds": args.seeds,
+            "delivered_return": result.summary["delivered_return"],
+            "delivered_at_step": result.summary["delivered_at_step"],
+            "last_eval_return": result.summary["eval_return"],
+            "run_steps": config.run_steps, "confirm_episodes": config.confirm_episodes,
+            "seconds": round(time.perf_counter() - start, 1)}
+        print(json.dumps({name: results[name]}), flush=True)
+    write_result("presets_delivered", results, provenance())
+
+
+if __name__ == "__main__":
+    main()
