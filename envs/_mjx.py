@@ -6,7 +6,26 @@ importing :mod:`envs` prints nothing.
 """
 
 import contextlib
+import importlib.metadata
 import io
+
+WRITTEN_FOR = {"mujoco": "4.0.0", "mujoco-mjx": "3.17.0"}
+"""The versions whose private MJX modules (``mujoco.mjx._src``) envs/ was written and tested
+against; the project pins them. Another version may rename or change what is used here."""
+
+
+def check_versions(installed=None) -> None:
+    """Raises ImportError (one line) unless the installed mujoco and mujoco-mjx are those of
+    `WRITTEN_FOR`. `installed`: name -> version, by default read from the installed packages."""
+    for name, wanted in WRITTEN_FOR.items():
+        found = (installed or {}).get(name) or importlib.metadata.version(name)
+        if found != wanted:
+            raise ImportError(
+                f"envs needs {name}=={wanted} (it uses MJX's private modules of that version), "
+                f"found {found}: pip install {name}=={wanted}")
+
+
+check_versions()
 
 with contextlib.redirect_stdout(io.StringIO()):
     from mujoco import mjx

@@ -197,3 +197,11 @@ def test_import_prints_nothing():
         [sys.executable, "-c", "import envs"], capture_output=True, text=True, check=True
     )
     assert out.stdout == ""
+
+
+def test_another_mujoco_version_is_refused_in_one_line():
+    from envs import _mjx
+    _mjx.check_versions()  # the installed, pinned versions pass
+    with pytest.raises(ImportError, match=r"^envs needs mujoco-mjx==3\.17\.0 .*found 3\.18\.0: "
+                                          r"pip install mujoco-mjx==3\.17\.0$"):
+        _mjx.check_versions({"mujoco": "4.0.0", "mujoco-mjx": "3.18.0"})
