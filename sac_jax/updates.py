@@ -2,7 +2,8 @@
 
 Randomness is either a PRNG key or explicit standard-normal noise eps (float array of the shape
 the update needs, (B, A)), so tests can replay a reference implementation's noise.
-Every update takes one Adam step on its own parameters and leaves the rest of the state as is.
+Every update takes one Adam step on its own parameters through `gradient_step` (loss ->
+gradient -> device mean -> optimiser) and leaves the rest of the state as is.
 
 Data parallel (`config.data_parallel_axis` set, inside a mapping over that device axis, see
 `sac_jax.parallel`): each device holds an equal share B/D of the batch, and each update replaces
@@ -43,14 +44,21 @@ def _mean_over_devices(agent: Agent, tree):
     return tree if axis is None else jax.lax.pmean(tree, axis)
 
 
-def _adam_step(optimizer: optax.GradientTransformation, params, grads, opt_state):
+def gradient_step(agent: Agent, optimizer: optax.GradientTransformation, objective: Callable,
+                  params, opt_state, summarize: Callable = lambda aux: {}):
+    """One optimiser step on an objective `objective(params) -> (J, aux)`, the pattern of every
+    SAC update: g = grad J(params); J, g and the scalar metrics `summarize(aux)` averaged over
+    the data-parallel devices (unchanged on one device); params <- params + optimizer(g).
+    Returns (params, opt_state, J, metrics, aux)."""
+    (loss, aux), grads = jax.value_and_grad(objective, has_aux=True)(params)
+    loss, metrics, grads = _mean_over_devices(agent, (loss, summarize(aux), grads))
     updates, opt_state = optimizer.update(grads, opt_state, params)
-    return optax.apply_updates(params, updates), opt_state
+    return optax.apply_updates(params, updates), opt_state, loss, metrics, aux
 
 
 def polyak_update(target, online, tau: float):
-    """theta-bar <- tau theta + (1 - tau) theta-bar, leaf by leaf."""
-    return jax.tree_util.tree_map(lambda t, o: tau * o + (1.0 - tau) * t, target, online)
+    """theta-bar <- tau theta + (1 - tau) theta-bar, leaf by leaf (`optax.incremental_update`)."""
+    return optax.incremental_update(online, target, tau)
 
 
 def critic_objective(agent: Agent, state: SACState, batch: Transition,
@@ -81,13 +89,11 @@ def critic_objective(agent: Agent, state: SACState, batch: Transition,
 def update_critic(agent: Agent, state: SACState, batch: Transition,
                   key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
     """One Adam step on J_Q for all N critics at once (see `critic_objective`)."""
-    (loss, q), grads = jax.value_and_grad(
-        critic_objective(agent, state, batch, key_or_noise), has_aux=True)(state.critic_params)
-    loss, q, grads = _mean_over_devices(agent, (loss, jnp.mean(q), grads))
-    params, opt_state = _adam_step(agent.critic_optimizer, state.critic_params, grads,
-                                   state.critic_opt_state)
+    params, opt_state, loss, metrics, _ = gradient_step(
+        agent, agent.critic_optimizer, critic_objective(agent, state, batch, key_or_noise),
+        state.critic_params, state.critic_opt_state, lambda q: {"q": jnp.mean(q)})
     return (state.replace(critic_params=params, critic_opt_state=opt_state),
-            {"critic_loss": loss, "q": q})
+            {"critic_loss": loss, **metrics})
 
 
 def actor_objective(agent: Agent, state: SACState, obs: jax.Array,
@@ -108,25 +114,23 @@ def update_actor(agent: Agent, state: SACState, obs: jax.Array,
                  key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
     """One Adam step on J_pi (see `actor_objective`). metrics["log_prob"] (B,) is log pi(a~|s)
     before the step (this device's share of the batch)."""
-    (loss, log_prob), grads = jax.value_and_grad(
-        actor_objective(agent, state, obs, key_or_noise), has_aux=True)(state.actor_params)
-    loss, entropy, grads = _mean_over_devices(agent, (loss, -jnp.mean(log_prob), grads))
-    params, opt_state = _adam_step(agent.actor_optimizer, state.actor_params, grads,
-                                   state.actor_opt_state)
+    params, opt_state, loss, metrics, log_prob = gradient_step(
+        agent, agent.actor_optimizer, actor_objective(agent, state, obs, key_or_noise),
+        state.actor_params, state.actor_opt_state,
+        lambda log_prob: {"entropy": -jnp.mean(log_prob)})
     return (state.replace(actor_params=params, actor_opt_state=opt_state),
-            {"actor_loss": loss, "entropy": entropy, "log_prob": log_prob})
+            {"actor_loss": loss, **metrics, "log_prob": log_prob})
 
 
 def update_temperature(agent: Agent, state: SACState,
                        log_prob: jax.Array) -> Tuple[SACState, Metrics]:
     """One Adam step on J_alpha over log alpha (see `losses.temperature_loss`), log_prob (B,)
     held constant; afterwards alpha = exp(log alpha)."""
-    cfg = agent.config
     log_prob = jax.lax.stop_gradient(log_prob)
-    loss, grad = _mean_over_devices(agent, jax.value_and_grad(losses.temperature_loss)(
-        state.log_alpha, log_prob, agent.target_entropy, cfg.alpha_loss))
-    log_alpha, opt_state = _adam_step(agent.alpha_optimizer, state.log_alpha, grad,
-                                      state.alpha_opt_state)
+    objective = lambda log_alpha: (losses.temperature_loss(
+        log_alpha, log_prob, agent.target_entropy, agent.config.alpha_loss), None)
+    log_alpha, opt_state, loss, _, _ = gradient_step(
+        agent, agent.alpha_optimizer, objective, state.log_alpha, state.alpha_opt_state)
     alpha = jnp.exp(log_alpha)
     return (state.replace(log_alpha=log_alpha, alpha=alpha, alpha_opt_state=opt_state),
             {"alpha_loss": loss, "alpha": alpha})
@@ -147,10 +151,10 @@ def value_objective(agent: Agent, state: SACState, obs: jax.Array,
 def update_value(agent: Agent, state: SACState, obs: jax.Array,
                  key_or_noise: jax.Array) -> Tuple[SACState, Metrics]:
     """One Adam step on J_V (see `value_objective`)."""
-    loss, grads = _mean_over_devices(agent, jax.value_and_grad(
-        value_objective(agent, state, obs, key_or_noise))(state.value_params))
-    params, opt_state = _adam_step(agent.value_optimizer, state.value_params, grads,
-                                   state.value_opt_state)
+    objective = value_objective(agent, state, obs, key_or_noise)
+    params, opt_state, loss, _, _ = gradient_step(
+        agent, agent.value_optimizer, lambda params: (objective(params), None),
+        state.value_params, state.value_opt_state)
     return state.replace(value_params=params, value_opt_state=opt_state), {"value_loss": loss}
 
 

@@ -32,6 +32,7 @@ import torch
 
 import envs
 import sac_jax
+from sac_jax import selection
 from sac_jax.train import make_train_parts
 from tests.equivalence_harness import (max_abs, max_rel, params_of, reference_alpha,
                                        reference_log_alpha, rel, state_from_reference)
@@ -147,7 +148,8 @@ def _measure(name: str, dtype: str, mutations, key_seed: int) -> Dict[str, float
     # the reference's initial weights (each reference run starts from the same ones: seed)
     initial = CleanRLSAC(env.observation_size, env.action_size, env.action_low, env.action_high,
                          seed=key_seed, dtype=torch_dtype, hidden=HIDDEN)
-    runner = runner.replace(sac=state_from_reference(agent, initial, np.dtype(dtype)))
+    sac = state_from_reference(agent, initial, np.dtype(dtype))
+    runner = runner.replace(sac=sac, delivered=selection.init(sac.actor_params))
 
     chunk = jax.jit(parts.chunk)  # driven from the host chunk by chunk, as sac_jax.run does
     ours = []
