@@ -4,7 +4,7 @@ Public API: `SACConfig`, `PRESETS`, `make_agent`, `Agent`, `SACState`, the updat
 (`update_critic`, `update_actor`, `update_temperature`, `update_value`, `polyak_update`,
 `sac_update`, `sample_noise`) and the objectives they differentiate (`critic_objective`,
 `actor_objective`, `value_objective`), the losses module, the replay buffer module, `evaluate`,
-`make_train` and its replay of recorded random draws (`Draws`, `record_draws`), and
+`make_train` and its replay of recorded random draws (`Draws`, `record_draws`, `replay`), and
 `load_policy` (a run directory's trained policy as a numpy function).
 """
 
@@ -16,7 +16,8 @@ from sac_jax.evaluation import evaluate
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
 from sac_jax.replay_buffer import ReplayBuffer, Transition
 from sac_jax.saved_policy import SavedPolicy, load_policy
-from sac_jax.train import METRIC_NAMES, Draws, RunnerState, make_train, record_draws
+from sac_jax.randomness import Draws
+from sac_jax.train import METRIC_NAMES, RunnerState, make_train, record_draws, replay
 from sac_jax.updates import (actor_objective, critic_objective, polyak_update, sac_update,
                              sample_noise, update_actor, update_critic, update_temperature,
                              update_value, value_objective)
@@ -25,7 +26,7 @@ __all__ = [
     "Agent", "DEFAULT_PRESET", "Draws", "METRIC_NAMES", "PRESETS", "ReplayBuffer", "RunnerState",
     "SACConfig", "SACState", "SavedPolicy", "Transition", "actor_objective", "critic_objective",
     "enable_compilation_cache", "evaluate", "load_policy", "losses", "make_agent", "make_train",
-    "polyak_update", "record_draws", "replay_buffer", "sac_update", "sample_noise",
+    "polyak_update", "record_draws", "replay", "replay_buffer", "sac_update", "sample_noise",
     "update_actor",
     "update_critic", "update_temperature", "update_value", "value_objective",
 ]

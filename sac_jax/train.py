@@ -25,12 +25,12 @@ every evaluation falls at the end of a chunk). `train` scans `chunk`; a host loo
 call a jitted `chunk` repeatedly to report progress between chunks, with no host callback in
 the program, so JAX's persistent compilation cache can keep it (`sac_jax.run` does this).
 
-Replay: every random draw of the loop (prefill actions, policy noise, minibatch slots, update
-noise) can come from a recorded stream instead of the PRNG: `record_draws(config, key)` returns
-the `Draws` that `train(key)` makes, and `train(key, draws)` uses the given ones. A reference
-implementation fed the same stream must then reproduce the run (tests/test_equivalence_loop.py).
-Evaluation and environment resets keep their keys (split from the same chain as without a
-stream).
+Randomness: every random draw of acting and learning comes through a source
+(`sac_jax.randomness`): a run draws from its PRNG keys (`FromKeys`); `make_train(config,
+randomness=replay(config, draws))` replays a recorded stream instead (`record_draws(config,
+key)` records the one `train(key)` makes), so a reference implementation fed the same stream
+must reproduce the run (tests/test_equivalence_loop.py). Evaluation and environment resets
+keep their keys (split from the same chain either way).
 """
 
 from __future__ import annotations
@@ -47,6 +47,7 @@ import envs
 from sac_jax import replay_buffer as rb
 from sac_jax import selection
 from sac_jax.agent import Agent, SACState, make_agent
+from sac_jax.randomness import Draws, FromKeys, Replay, check
 from sac_jax.config import SACConfig
 from sac_jax.evaluation import evaluate
 from sac_jax.replay_buffer import ReplayBuffer, Transition
@@ -59,33 +60,12 @@ return over `confirm_episodes` fresh episodes (NaN where it was no candidate); t
 return of the delivered actor after the point (`sac_jax.selection`)."""
 
 
-class Draws(flax.struct.PyTreeNode):
-    """The random draws of one training iteration (n = num_envs, A = action size,
-    U = updates_per_step, B = batch_size). A recorded stream holds them for every iteration of
-    a run, each field with a leading axis T = total iterations (`record_draws`).
-
-    random_action (n, A)  U(low, high): the actions during the prefill
-    action_noise (n, A)   standard normal eps of the policy's action a = f(eps; s) afterwards
-    batch_index (U, B)    int32 replay slots of the iteration's U minibatches
-    update_noise          for each of the U `sac_update`s the dict of `sample_noise`, every
-                          leaf with a leading axis U
-    Each iteration holds all of them; the prefill uses no batch_index, update_noise or
-    action_noise, and training no random_action.
-    """
-
-    random_action: jax.Array
-    action_noise: jax.Array
-    batch_index: jax.Array
-    update_noise: Dict[str, jax.Array]
-
-
 class RunnerState(flax.struct.PyTreeNode):
     """Everything a run carries between iterations. `iteration` counts iterations done;
     `sums` accumulates the current evaluation period's metrics as (sum, count) pairs;
     `outputs` holds one slot per evaluation point; `delivered` is the kept actor
     (`sac_jax.selection`); `stopped` () bool, whether this seed has stopped learning
-    (`SACConfig.stop_when_solved`); `draws`, if not None, is the recorded stream the iterations
-    take their random draws from (indexed by `iteration`)."""
+    (`SACConfig.stop_when_solved`)."""
 
     sac: SACState
     env: envs.VectorState
@@ -96,14 +76,13 @@ class RunnerState(flax.struct.PyTreeNode):
     outputs: Dict[str, jax.Array]
     delivered: selection.Delivered
     stopped: jax.Array
-    draws: Optional[Draws] = None
 
 
 class TrainParts(NamedTuple):
-    """`init(key, draws=None) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations`
-    iterations (evaluating where an evaluation period ends); `num_chunks` chunks make the run;
-    `record_draws(key) -> Draws`, the stream of the run from `init(key)` (see `record_draws`;
-    None for the data-parallel parts of `sac_jax.parallel`, which take no recorded stream)."""
+    """`init(key) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations` iterations
+    (evaluating where an evaluation period ends); `num_chunks` chunks make the run;
+    `record_draws(key) -> Draws`, the stream of the run from `init(key)` drawn from keys (see
+    `record_draws`; None for the data-parallel parts of `sac_jax.parallel`)."""
 
     init: Callable[..., RunnerState]
     chunk: Callable[[RunnerState], RunnerState]
@@ -137,12 +116,14 @@ def agent_for(config: SACConfig) -> Tuple[Agent, object]:
 
 
 def make_train_parts(config: SACConfig,
-                     progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None
-                     ) -> TrainParts:
+                     progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None,
+                     randomness=None) -> TrainParts:
     """The training loop as `TrainParts` (see the module docstring and `make_train`)."""
     agent, env = agent_for(config)
     vec = envs.VectorEnv(env, config.num_envs)
-    low, high = jnp.asarray(agent.action_low), jnp.asarray(agent.action_high)
+    keys = FromKeys(config.num_envs, agent.action_low, agent.action_high,
+                    config.updates_per_step, config.batch_size)
+    source = keys if randomness is None else randomness
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
     updates, batch_size = config.updates_per_step, config.batch_size
     chunk_iterations = math.gcd(prefill, period)
@@ -151,29 +132,16 @@ def make_train_parts(config: SACConfig,
     nan = jnp.float32(jnp.nan)
 
     # The key chain: init splits (k_sac, k_env, k_run); each iteration splits the run key into
-    # (key, k_act, k_random, k_learn), k_learn into (k_batch, k_noise); each evaluation splits
-    # (key, k_eval). `record_draws` follows the same chain.
-    def acting_draws(k_act: jax.Array, k_random: jax.Array) -> Tuple[jax.Array, jax.Array]:
-        """(random_action, action_noise) of `Draws`; eps as `Agent.act` draws it."""
-        return (jax.random.uniform(k_random, (n, agent.action_size), minval=low, maxval=high),
-                jax.random.normal(k_act, (n, agent.action_size), jnp.float32))
-
-    def learning_draws(k_learn: jax.Array, size: jax.Array) -> Tuple[jax.Array, jax.Array]:
-        """(batch_index of `Draws` for a buffer of `size`, the U keys the updates draw their
-        noise from)."""
-        k_batch, k_noise = jax.random.split(k_learn)
-        return (rb.sample_indices(k_batch, size, (updates, batch_size)),
-                jax.random.split(k_noise, updates))
-
+    # (key, k_act, k_random, k_learn); each evaluation splits (key, k_eval). `record_draws`
+    # follows the same chain.
     def evaluates_after(iterations_done: jax.Array) -> jax.Array:
         after_prefill = iterations_done - prefill
         return (after_prefill > 0) & (after_prefill % period == 0)
 
-    def learn(sac: SACState, buffer: ReplayBuffer, key: jax.Array, recorded: Optional[Draws]):
+    def learn(sac: SACState, buffer: ReplayBuffer, key: jax.Array, iteration: jax.Array):
         # All minibatches of the iteration are gathered at once, then scanned over.
-        # randomness: U keys (sac_update draws its noise from each) or the recorded noise
-        index, randomness = (learning_draws(key, buffer.size) if recorded is None
-                             else (recorded.batch_index, recorded.update_noise))
+        # randomness: U keys (sac_update draws its noise from each) or U recorded noise dicts
+        index, randomness = source.learning(key, buffer.size, iteration)
         with jax.named_scope("replay_sample"):
             batches = rb.gather(buffer, index)
         with jax.named_scope("sac_update"):
@@ -220,12 +188,7 @@ def make_train_parts(config: SACConfig,
     def iteration(runner: RunnerState, _):
         learning = runner.iteration >= prefill
         key, k_act, k_random, k_learn = jax.random.split(runner.key, 4)
-        if runner.draws is None:
-            recorded = None
-            random_action, action_noise = acting_draws(k_act, k_random)
-        else:
-            recorded = jax.tree_util.tree_map(lambda x: x[runner.iteration], runner.draws)
-            random_action, action_noise = recorded.random_action, recorded.action_noise
+        random_action, action_noise = source.acting(k_act, k_random, runner.iteration)
         obs = runner.env.env_state.obs
         with jax.named_scope("act"):
             action = jnp.where(
@@ -238,7 +201,7 @@ def make_train_parts(config: SACConfig,
                 obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
                 terminated=step.terminated.astype(jnp.float32)))
         sac, metrics = jax.lax.cond(
-            learning, lambda sac: learn(sac, buffer, k_learn, recorded),
+            learning, lambda sac: learn(sac, buffer, k_learn, runner.iteration),
             lambda sac: (sac, {name: nan for name in METRIC_NAMES}), runner.sac)
         if config.stop_when_solved:  # a stopped seed keeps its learner; the update count is shared
             keep = lambda old, new: jnp.where(runner.stopped, old, new)
@@ -262,8 +225,8 @@ def make_train_parts(config: SACConfig,
         def one(key, i):
             key, k_act, k_random, k_learn = jax.random.split(key, 4)
             size = jnp.minimum((i + 1) * n, config.buffer_size)  # after this iteration's add
-            index, noise_keys = learning_draws(k_learn, size)
-            draws = Draws(*acting_draws(k_act, k_random), batch_index=index,
+            index, noise_keys = keys.learning(k_learn, size, i)
+            draws = Draws(*keys.acting(k_act, k_random, i), batch_index=index,
                           update_noise=jax.vmap(lambda k: sample_noise(agent, k, batch_size))(
                               noise_keys))
             key = jax.lax.cond(evaluates_after(i + 1), lambda k: jax.random.split(k)[0],
@@ -272,9 +235,7 @@ def make_train_parts(config: SACConfig,
 
         return jax.lax.scan(one, jax.random.split(key, 3)[2], jnp.arange(num_iterations))[1]
 
-    def init(key: jax.Array, draws: Optional[Draws] = None) -> RunnerState:
-        if draws is not None:
-            _check_draws(draws, jax.eval_shape(record_draws, key))
+    def init(key: jax.Array) -> RunnerState:
         k_sac, k_env, k_run = jax.random.split(key, 3)
         env_state = vec.reset(k_env)
         example = Transition(obs=env_state.env_state.obs[0],
@@ -289,40 +250,34 @@ def make_train_parts(config: SACConfig,
             outputs={"env_steps": jnp.zeros(config.num_evals, jnp.int32),
                      **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
                         for name in sum_names + EVAL_NAMES}},
-            delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False), draws=draws)
+            delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False))
 
     return TrainParts(init, chunk, chunk_iterations, num_iterations // chunk_iterations,
                       record_draws)
 
 
-def _check_draws(draws: Draws, expected: Draws) -> None:
-    """ValueError naming the first field of `draws` whose shape (or kind: integer slots, float
-    noise) differs from the stream `record_draws` makes for this configuration."""
-    paths = jax.tree_util.tree_flatten_with_path(expected)[0]
-    leaves, treedef = jax.tree_util.tree_flatten(draws)
-    if treedef != jax.tree_util.tree_structure(expected):
-        raise ValueError(f"draws has structure {treedef}, expected that of record_draws: "
-                         f"{jax.tree_util.tree_structure(expected)}")
-    for (path, want), got in zip(paths, leaves):
-        kind = jnp.integer if jnp.issubdtype(want.dtype, jnp.integer) else jnp.floating
-        if jnp.shape(got) != want.shape or not jnp.issubdtype(jnp.result_type(got), kind):
-            raise ValueError(f"draws{jax.tree_util.keystr(path)} has shape {jnp.shape(got)} and "
-                             f"dtype {jnp.result_type(got)}, expected shape {want.shape} of "
-                             f"{kind.__name__} (leading axis: the run's iterations)")
-
-
 def record_draws(config: SACConfig, key: jax.Array) -> Draws:
     """The random draws `make_train(config)(key)` makes, iteration by iteration: a `Draws` with
-    a leading axis T = prefill_iterations + num_evals * iterations_per_eval. `train(key, draws)`
-    with this stream gives the same run as `train(key)`; feeding it to another implementation
-    replays the run there (batch_index are slots of the ring buffer, filled num_envs at a time
-    in order from slot 0). Pure and jit-able."""
+    a leading axis T = prefill_iterations + num_evals * iterations_per_eval. Replayed
+    (`make_train(config, randomness=replay(config, draws))`), it gives the same run as
+    `train(key)`; feeding it to another implementation replays the run there (batch_index are
+    slots of the ring buffer, filled num_envs at a time in order from slot 0). Pure and
+    jit-able."""
     return make_train_parts(config).record_draws(key)
 
 
+def replay(config: SACConfig, draws: Draws) -> Replay:
+    """The recorded stream `draws` as the randomness of `make_train(config, randomness=...)`;
+    ValueError naming the first field whose shape differs from what `record_draws(config,
+    key)` makes."""
+    check(draws, jax.eval_shape(lambda key: record_draws(config, key), jax.random.key(0)))
+    return Replay(draws)
+
+
 def make_train(config: SACConfig,
-               progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None):
-    """Returns `train(key, draws=None) -> (RunnerState, metrics)`, the whole run as one scan.
+               progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None,
+               randomness=None):
+    """Returns `train(key) -> (RunnerState, metrics)`, the whole run as one scan.
 
     metrics: arrays with a leading axis of `config.num_evals` evaluation points:
     `env_steps` (environment steps done), `eval_return`, `confirm_return` and
@@ -330,16 +285,17 @@ def make_train(config: SACConfig,
     in the period, NaN if none), and the period means of the update metrics in `METRIC_NAMES`
     (NaN where unused, and after a seed stopped). The runner's `delivered.actor_params` is the
     actor the run delivers (`sac_jax.selection`).
-    `draws`, if given, is a recorded stream (`record_draws`) that replaces the PRNG draws of
-    acting and learning; a stream of the wrong shape raises ValueError.
+    `randomness`, if given, is the source of acting's and learning's draws
+    (`sac_jax.randomness`; e.g. `replay(config, record_draws(config, key))`), default the
+    run's PRNG keys.
     `progress`, if given, is called on the host with each evaluation point's metrics (through
     `jax.debug.callback`; under `vmap` once per seed). A program with a host callback is not
     kept by JAX's persistent compilation cache; `sac_jax.run` reports progress between chunks.
     """
-    parts = make_train_parts(config, progress)
+    parts = make_train_parts(config, progress, randomness)
 
-    def train(key: jax.Array, draws: Optional[Draws] = None):
-        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key, draws), None,
+    def train(key: jax.Array):
+        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key), None,
                               length=parts.num_chunks)[0]
         return runner, runner.outputs
 

@@ -143,7 +143,8 @@ def _measure(name: str, dtype: str, mutations, key_seed: int) -> Dict[str, float
 
     key = jax.random.key(key_seed)
     draws = jax.jit(parts.record_draws)(key)
-    runner = jax.jit(parts.init)(key, draws)
+    parts = make_train_parts(config, randomness=sac_jax.replay(config, draws))
+    runner = jax.jit(parts.init)(key)
     initial_env = runner.env
     # the reference's initial weights (each reference run starts from the same ones: seed)
     initial = CleanRLSAC(env.observation_size, env.action_size, env.action_low, env.action_high,

@@ -106,18 +106,22 @@ def test_replay_buffer_is_updated_in_place_inside_the_loop():
 
 
 def test_replaying_the_recorded_draws_reproduces_the_run(first):
-    """`train(key, record_draws(config, key))` takes every random draw of acting and learning
-    from the stream and gives the run of `train(key)` bit for bit (evaluations included, whose
-    keys come from the same chain), so the stream is exactly what the loop draws."""
+    """`make_train(config, randomness=replay(config, record_draws(config, key)))(key)` takes
+    every random draw of acting and learning from the stream and gives the run of `train(key)`
+    bit for bit (evaluations included, whose keys come from the same chain), so the stream is
+    exactly what the loop draws."""
     draws = jax.jit(sac_jax.record_draws, static_argnums=0)(CONFIG, KEYS[0])
     iterations = CONFIG.prefill_iterations + CONFIG.num_evals * CONFIG.iterations_per_eval
     assert draws.batch_index.shape == (iterations, CONFIG.updates_per_step, CONFIG.batch_size)
-    replay = jax.jit(sac_jax.make_train(CONFIG))
-    replayed = jax.device_get(replay(KEYS[0], draws))
+
+    def replayed(draws):
+        train = sac_jax.make_train(CONFIG, randomness=sac_jax.replay(CONFIG, draws))
+        return jax.device_get(jax.jit(train)(KEYS[0]))
+
     jax.tree_util.tree_map(np.testing.assert_array_equal, _comparable(first),
-                           _comparable(replayed))
+                           _comparable(replayed(draws)))
     # and the stream is what the loop uses: other policy noise gives another run
-    changed = jax.device_get(replay(KEYS[0], draws.replace(action_noise=-draws.action_noise)))
+    changed = replayed(draws.replace(action_noise=-draws.action_noise))
     diff, _ = _max_diff_and_scale(changed[0].sac.actor_params, first[0].sac.actor_params)
     assert diff > 0, diff
 
@@ -126,10 +130,10 @@ def test_a_stream_of_the_wrong_shape_is_refused():
     draws = jax.eval_shape(lambda key: sac_jax.record_draws(CONFIG, key), KEYS[0])
     short = draws.replace(batch_index=jax.ShapeDtypeStruct((5, 2, 64), np.int32))
     with pytest.raises(ValueError, match=r"draws\.batch_index has shape \(5, 2, 64\)"):
-        jax.eval_shape(sac_jax.make_train(CONFIG), KEYS[0], short)
+        sac_jax.replay(CONFIG, short)
     floats = draws.replace(batch_index=jax.ShapeDtypeStruct(draws.batch_index.shape, np.float32))
     with pytest.raises(ValueError, match="batch_index"):
-        jax.eval_shape(sac_jax.make_train(CONFIG), KEYS[0], floats)
+        sac_jax.replay(CONFIG, floats)
 
 
 def test_the_iterations_parts_carry_the_named_scopes_profiles_sum_by():
