@@ -27,7 +27,7 @@ Measured per trainer, with the same clock for both:
 * compile_s: union of the time spans of JAX's tracing, lowering and XLA-compilation events
   (jax.monitoring) during the run; nested traces are counted once.
 * solve_total_s: from the trainer's call to the first evaluation whose mean return reaches
-  950 (the preset's SOLVED_RETURN); solve_train_s: the same minus the compile time before it.
+  950 (the task's solved return, envs.spec); solve_train_s: the same minus the compile time before it.
 * env_steps_per_s: environment steps of the run / (run wall time - compile_s), evaluations
   included for both.
 Ratios are ours / brax (time: below 1 means ours is faster; steps/s: above 1).
@@ -59,7 +59,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 import envs  # noqa: E402
-from envs import SOLVED_RETURN  # noqa: E402
+import envs  # noqa: E402
 from sac_jax.presets import PRESETS  # noqa: E402
 from sac_jax.run import compiled_program, run_training  # noqa: E402
 
@@ -189,7 +189,7 @@ def main():
     if args.total_steps is not None:
         config = config.replace(total_steps=args.total_steps,
                                 buffer_size=max(config.buffer_size, args.total_steps))
-    threshold = SOLVED_RETURN[config.env]
+    threshold = envs.spec(config.env).solved_return
     if args.cache_dir:
         from sac_jax.compilation_cache import enable_compilation_cache
         enable_compilation_cache(args.cache_dir)

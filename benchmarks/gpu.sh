@@ -9,11 +9,6 @@
 # Usage: bash benchmarks/gpu.sh env [env_throughput.py flags, e.g. --sizes 8 1280 --lean-stages off]
 #        bash benchmarks/gpu.sh evaluation [evaluation_cost.py flags, e.g. --seeds 1 --lean-stages off]
 #        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype bfloat16]
-#        bash benchmarks/gpu.sh train [scripts/train.py flags for every run, e.g.
-#          --hidden-dtype bfloat16]
-#        bash benchmarks/gpu.sh wall [scripts/train.py flags for every run, e.g.
-#          --hidden-dtype bfloat16] (time_to_solve.py: process start to solved, cold and warm,
-#          seeds 0, 1, 2 one at a time, then 256 seeds)
 #        bash benchmarks/gpu.sh profile [profile_chunk.py flags, e.g. --hidden-dtype float32]
 #        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
@@ -39,18 +34,6 @@ case "$mode" in
       --skip-baselines "$@" ;;
   updates)
     python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 "$@" ;;
-  train)
-    rm -rf /tmp/runs
-    for seed in 0 1 2; do
-      python3 scripts/train.py --seed "$seed" --cache-dir /tmp/jaxcache --out "/tmp/runs/1-$seed" \
-        "$@" 2>&1 | tail -1
-    done
-    python3 scripts/train.py --seeds 256 --cache-dir /tmp/jaxcache --out /tmp/runs/256 "$@" 2>&1 \
-      | tail -1
-    python3 benchmarks/solve_times.py /tmp/runs/* ;;
-  wall)
-    for seed in 0 1 2; do python3 benchmarks/time_to_solve.py --seed "$seed" "$@"; done
-    python3 benchmarks/time_to_solve.py --seeds 256 "$@" ;;
   evaluation)
     rm -rf /tmp/policy-run
     python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1

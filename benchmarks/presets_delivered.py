@@ -26,7 +26,7 @@ from benchmarks.provenance import provenance, write_result
 from sac_jax.run import run_training
 from sac_jax.saved_policy import SavedPolicy
 from sac_jax.train import agent_for
-from scripts.evaluate import GYMNASIUM_IDS, gymnasium_returns
+from scripts.evaluate import gymnasium_returns
 
 
 def config_of(name: str, idp_steps: int, confirm_episodes: int) -> sac_jax.SACConfig:
@@ -40,9 +40,10 @@ def config_of(name: str, idp_steps: int, confirm_episodes: int) -> sac_jax.SACCo
 def score(policy: SavedPolicy, episodes: int, seed: int) -> float:
     """Mean return over `episodes` episodes in Gymnasium's twin, else in ours."""
     env_name = policy.config.env
-    if env_name in GYMNASIUM_IDS:
+    gym_id = envs.spec(env_name).gymnasium_id
+    if gym_id is not None:
         import gymnasium
-        env = gymnasium.make(GYMNASIUM_IDS[env_name])
+        env = gymnasium.make(gym_id)
         try:
             return float(np.mean(gymnasium_returns(policy, env, episodes, seed)))
         finally:
@@ -70,9 +71,10 @@ def main() -> None:
         scores = [score(SavedPolicy(config, {}, s, agent, jax.tree_util.tree_map(
             lambda x: x[s], result.state.delivered.actor_params)), args.episodes, 1000 + s)
             for s in range(args.seeds)]
-        threshold = envs.SOLVED_RETURN[config.env]
+        threshold = envs.spec(config.env).solved_return
         results[name] = {
-            "env": config.env, "judged_in": "gymnasium" if config.env in GYMNASIUM_IDS else "ours",
+            "env": config.env,
+            "judged_in": "gymnasium" if envs.spec(config.env).gymnasium_id else "ours",
             "threshold": threshold, "scores": scores,
             "solved": sum(s >= threshold for s in scores), "seeds": args.seeds,
             "delivered_return": result.summary["delivered_return"],

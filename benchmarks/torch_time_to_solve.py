@@ -46,7 +46,7 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from envs import SOLVED_RETURN  # noqa: E402
+import envs  # noqa: E402
 from sac_jax.presets import PRESETS  # noqa: E402
 from tests.reference import cleanrl_sac  # noqa: E402
 
@@ -165,7 +165,7 @@ def main():
     torch.set_num_threads(args.threads)
     # The reference copies every gradient for the equivalence tests; the seed's loop does not.
     cleanrl_sac.grads = lambda layers: None
-    threshold = SOLVED_RETURN[ENV]
+    threshold = envs.spec(ENV).solved_return
 
     runs = []
     for seed in range(args.seeds):

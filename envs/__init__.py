@@ -10,14 +10,14 @@ See docs/environments.md for the interface and the list of environments.
 Brax is imported on its first use only.
 """
 
-from envs.registry import DEFAULT_ENV, SOLVED_RETURN, make, options, registered
+from envs.registry import DEFAULT_ENV, EnvSpec, make, options, registered, spec
 from envs.types import Env, EnvState
 from envs.vector import VectorEnv, VectorState, VectorStep
 
 __all__ = [
     "DEFAULT_ENV",
-    "SOLVED_RETURN",
     "Env",
+    "EnvSpec",
     "EnvState",
     "VectorEnv",
     "VectorState",
@@ -25,6 +25,7 @@ __all__ = [
     "make",
     "options",
     "registered",
+    "spec",
     "to_brax",
 ]
 

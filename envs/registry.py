@@ -1,9 +1,16 @@
-"""Environment names and ``make``."""
+"""The environment registry: one `EnvSpec` per environment, and ``make``.
+
+Adding an environment is one module (its `Env` subclass) and one `EnvSpec` line in `SPECS`.
+Presets, scripts (evaluation against Gymnasium, rendering), `sac_jax.run`'s solved counts and
+the learning tests read an environment's facts from its spec.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import inspect
+from typing import Callable, Literal, Optional
 
 from envs import cartpole
 from envs.double_pendulum import InvertedDoublePendulum
@@ -12,33 +19,58 @@ from envs.types import Env
 
 DEFAULT_ENV = "InvertedPendulum-v5"
 
-_FACTORIES = {
-    "InvertedPendulum-v5": functools.partial(cartpole.CartPole, variant=cartpole.V5),
-    "InvertedPendulum-v4": functools.partial(cartpole.CartPole, variant=cartpole.V4),
-    "InvertedPendulumBullet-v0": functools.partial(cartpole.CartPole, variant=cartpole.BULLET),
-    "InvertedDoublePendulum-v5": InvertedDoublePendulum,
-    "Pendulum-v1": Pendulum,
-}
 
-SOLVED_RETURN = {
-    "InvertedPendulum-v5": 950.0,
-    "InvertedPendulum-v4": 950.0,
-    "InvertedPendulumBullet-v0": 950.0,
-    "InvertedDoublePendulum-v5": 9000.0,
-    "Pendulum-v1": -250.0,
-}
-"""Mean deterministic evaluation return at which each task counts as solved."""
+@dataclasses.dataclass(frozen=True)
+class EnvSpec:
+    """What sac-jax knows of one environment.
+
+    name            the registered name (`make(name)`)
+    factory         `factory(name, **options) -> Env`; its keyword-only parameters are the
+                    environment's options (`options(name)`)
+    solved_return   mean deterministic evaluation return at which the task counts as solved
+    gymnasium_id    Gymnasium's id of the same task, stepped as ours is (tests/test_envs.py),
+                    or None where Gymnasium has no twin
+    renderer        how scripts/render.py draws it: "mujoco" (MuJoCo's renderer on the MJCF
+                    model, posed from qpos) or "pendulum" (matplotlib)
+    The observation and action spaces are the built environment's (`observation_size`,
+    `action_size`, `action_low`, `action_high`).
+    """
+
+    name: str
+    factory: Callable[..., Env]
+    solved_return: Optional[float]
+    gymnasium_id: Optional[str]
+    renderer: Literal["mujoco", "pendulum"]
+
+
+SPECS = {spec.name: spec for spec in (
+    EnvSpec("InvertedPendulum-v5", functools.partial(cartpole.CartPole, variant=cartpole.V5),
+            950.0, "InvertedPendulum-v5", "mujoco"),
+    EnvSpec("InvertedPendulum-v4", functools.partial(cartpole.CartPole, variant=cartpole.V4),
+            950.0, "InvertedPendulum-v4", "mujoco"),
+    EnvSpec("InvertedPendulumBullet-v0",
+            functools.partial(cartpole.CartPole, variant=cartpole.BULLET), 950.0, None, "mujoco"),
+    EnvSpec("InvertedDoublePendulum-v5", InvertedDoublePendulum, 9000.0,
+            "InvertedDoublePendulum-v5", "mujoco"),
+    EnvSpec("Pendulum-v1", Pendulum, -250.0, "Pendulum-v1", "pendulum"),
+)}
 
 
 def registered() -> tuple[str, ...]:
     """Names accepted by :func:`make`."""
-    return tuple(_FACTORIES)
+    return tuple(SPECS)
+
+
+def spec(name: str) -> EnvSpec:
+    """The `EnvSpec` of environment ``name``; ValueError naming the registered ones."""
+    if name not in SPECS:
+        raise ValueError(f"unknown environment {name!r}; registered: {', '.join(SPECS)}")
+    return SPECS[name]
 
 
 def options(name: str) -> dict[str, object]:
     """Options of environment ``name`` and their defaults."""
-    factory = _factory(name)
-    signature = inspect.signature(factory)
+    signature = inspect.signature(spec(name).factory)
     return {
         p.name: p.default
         for p in signature.parameters.values()
@@ -59,10 +91,4 @@ def make(name: str = DEFAULT_ENV, **kwargs) -> Env:
         raise TypeError(
             f"unknown option(s) {unknown} for {name}; accepted options: {sorted(accepted)}"
         )
-    return _factory(name)(name, **kwargs)
-
-
-def _factory(name: str):
-    if name not in _FACTORIES:
-        raise ValueError(f"unknown environment {name!r}; registered: {', '.join(_FACTORIES)}")
-    return _FACTORIES[name]
+    return spec(name).factory(name, **kwargs)

@@ -70,7 +70,7 @@ class SACConfig:
     the run ends when every seed has stopped."""
     stop_return: Optional[float] = None
     """Confirmed return at which `stop_when_solved` stops a seed; None: the task's solved
-    return (`envs.SOLVED_RETURN`)."""
+    return (`envs.spec(env).solved_return`)."""
 
     # --- objective ---
     gamma: float = 0.99
@@ -251,8 +251,8 @@ class SACConfig:
         """The confirmed return at which `stop_when_solved` stops a seed (see `stop_return`)."""
         import envs
 
-        return self.stop_return if self.stop_return is not None else envs.SOLVED_RETURN.get(
-            self.env)
+        return (self.stop_return if self.stop_return is not None
+                else envs.spec(self.env).solved_return)
 
     @property
     def run_steps(self) -> int:

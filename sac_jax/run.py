@@ -24,11 +24,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+import envs
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import over_seed_axis, seeds_program
 from sac_jax.program_cache import cached_compile
-from envs import SOLVED_RETURN
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 
 FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
@@ -127,7 +127,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     resume: `(state, position)` read from a checkpoint; the run continues from there.
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
         metrics averaged over seeds and each seed's evaluation return; for a task with a solved
-        threshold (`SOLVED_RETURN`), means["solved"] is the fraction of seeds whose delivered
+        threshold (`envs.spec(env).solved_return`), means["solved"] is the fraction of seeds whose delivered
         actor has reached it (`delivered_return`), and means["stopped"] the fraction stopped.
     on_checkpoint(state, position): after every evaluation point and when stopping on request;
         the state is not touched afterwards until the call returns (save it there).
@@ -137,7 +137,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     A parameter, optimiser state or temperature that becomes non-finite ends the run as
     NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good.
     """
-    threshold = SOLVED_RETURN.get(config.env)
+    threshold = envs.spec(config.env).solved_return
     t0 = time.perf_counter()
     parts, init, chunk, finite, sharding = compiled_program(config, seeds)
     if resume is None:
@@ -216,7 +216,7 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
     from process start at which the delivered actor first reached the solved return (None
     where it has not); for all seeds, the training and process seconds until the last of them
     was solved (None unless all were)."""
-    threshold = SOLVED_RETURN.get(config.env)
+    threshold = envs.spec(config.env).solved_return
     steps = metrics["env_steps"][0, :points]
     before_training = position["startup_s"] + position["compile_s"]
     wall = lambda step: None if step is None else round(position["walls"][str(step)], 3)

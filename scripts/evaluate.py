@@ -43,10 +43,6 @@ from sac_jax import run_dir  # noqa: E402
 from sac_jax.evaluation import initial_states  # noqa: E402
 from scripts._cli import MissingDependency, fail, parse, positive  # noqa: E402
 
-GYMNASIUM_IDS = {name: name for name in (
-    "InvertedPendulum-v5", "InvertedPendulum-v4", "InvertedDoublePendulum-v5", "Pendulum-v1")}
-"""Gymnasium's id of each of our environments that has a Gymnasium twin (the same name)."""
-
 GYMNASIUM_MISSING = 'Gymnasium is not installed: pip install "gymnasium[mujoco]"'
 
 
@@ -114,10 +110,12 @@ def gymnasium_returns(policy, gym_env, episodes: int, seed: int, starts=None) ->
 
 
 def _gymnasium_id(env_name: str) -> str:
-    if env_name not in GYMNASIUM_IDS:
+    gym_id = envs.spec(env_name).gymnasium_id
+    if gym_id is None:
+        covered = [name for name in envs.registered() if envs.spec(name).gymnasium_id]
         raise ValueError(f"{env_name} has no Gymnasium counterpart (Gymnasium evaluation covers "
-                         f"{', '.join(GYMNASIUM_IDS)}); use --which ours")
-    return GYMNASIUM_IDS[env_name]
+                         f"{', '.join(covered)}); use --which ours")
+    return gym_id
 
 
 def _make_gymnasium(gym_id: str):
@@ -143,7 +141,8 @@ def main(argv=None) -> int:
     try:
         args = parse(EvaluateArgs, argv, description=__doc__)
         config, _ = run_dir.read_config(args.run)
-        which = args.which or ("both" if config.env in GYMNASIUM_IDS or args.paired else "ours")
+        twin = envs.spec(config.env).gymnasium_id is not None
+        which = args.which or ("both" if twin or args.paired else "ours")
         use_ours, use_gym = which in ("ours", "both"), which in ("gymnasium", "both")
         gym_id = _gymnasium_id(config.env) if use_gym else None
         sac_jax.enable_compilation_cache()

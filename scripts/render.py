@@ -289,7 +289,8 @@ def main(argv=None) -> int:
     fps = args.fps or max(1, round(1.0 / env.dt))
     try:
         # The OpenGL context first: no compiling before knowing that it can be drawn.
-        renderer = (mujoco_renderer(env, args.width, args.height) if isinstance(env, MjxEnv)
+        renderer = (mujoco_renderer(env, args.width, args.height)
+                    if envs.spec(env.name).renderer == "mujoco"
                     else None)
     except MissingDependency as error:
         return fail(error, 1)

@@ -105,7 +105,7 @@ def test_presets_are_valid_and_derived_sizes_consistent(name):
 def test_stop_return_defaults_to_the_tasks_solved_return():
     import envs
     config = SACConfig(env="Pendulum-v1", stop_when_solved=True)
-    assert config.stop_at == envs.SOLVED_RETURN["Pendulum-v1"]
+    assert config.stop_at == envs.spec("Pendulum-v1").solved_return
     assert config.replace(stop_return=-100.0).stop_at == -100.0
     with pytest.raises(ValueError, match=r"SACConfig.stop_return=nan: must be finite or None"):
         config.replace(stop_return=float("nan"))

@@ -205,3 +205,13 @@ def test_another_mujoco_version_is_refused_in_one_line():
     with pytest.raises(ImportError, match=r"^envs needs mujoco-mjx==3\.17\.0 .*found 3\.18\.0: "
                                           r"pip install mujoco-mjx==3\.17\.0$"):
         _mjx.check_versions({"mujoco": "4.0.0", "mujoco-mjx": "3.18.0"})
+
+
+def test_every_registered_environment_has_a_spec_that_builds_it():
+    for name in envs.registered():
+        spec = envs.spec(name)
+        env = spec.factory(name)
+        assert spec.name == env.name == name and spec.renderer in ("mujoco", "pendulum")
+        assert spec.solved_return is not None
+    with pytest.raises(ValueError, match="unknown environment 'CartPole-v9'; registered: "):
+        envs.spec("CartPole-v9")

@@ -46,13 +46,13 @@ def test_fast_preset_delivers_a_solved_policy_for_two_of_two_seeds(hidden_dtype)
     policies, result = delivered_policies(config, seeds=2)
     assert result.summary["stopped"] == [True, True], result.summary
     scores = [gymnasium_score(p) for p in policies]
-    assert min(scores) >= envs.SOLVED_RETURN[config.env], scores
+    assert min(scores) >= envs.spec(config.env).solved_return, scores
 
 
 def test_pendulum_preset_delivers_minus_250_on_gymnasium_pendulum_v1():
     (policy,), _ = delivered_policies(PRESETS["pendulum"], seeds=1)
     score = gymnasium_score(policy)
-    assert score >= envs.SOLVED_RETURN["Pendulum-v1"], score
+    assert score >= envs.spec("Pendulum-v1").solved_return, score
 
 
 def test_v1_preset_delivers_a_balancing_policy():
@@ -61,4 +61,4 @@ def test_v1_preset_delivers_a_balancing_policy():
     env = envs.make(config.env)
     returns = sac_jax.evaluate(policy.agent, env, policy.actor_params, jax.random.key(2024),
                                EPISODES)
-    assert float(np.mean(returns)) >= envs.SOLVED_RETURN[config.env], returns
+    assert float(np.mean(returns)) >= envs.spec(config.env).solved_return, returns

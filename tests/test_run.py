@@ -2,11 +2,14 @@
 more between its chunks (the finiteness check included), each evaluation point reports the
 fraction of seeds solved so far, and a non-finite state is named by quantity and seed."""
 
+import dataclasses
 import logging
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+import envs
 
 import sac_jax
 from sac_jax import run
@@ -34,7 +37,9 @@ def test_each_point_reports_the_fraction_of_seeds_solved_so_far(monkeypatch):
     reached the threshold, with a threshold between the returns this run reaches."""
     returns = run.run_training(CONFIG, seeds=2).metrics["delivered_return"]  # (seeds, points)
     threshold = float(np.median(returns))
-    monkeypatch.setitem(run.SOLVED_RETURN, CONFIG.env, threshold)
+    spec = envs.spec(CONFIG.env)
+    monkeypatch.setitem(envs.registry.SPECS, spec.name,
+                        dataclasses.replace(spec, solved_return=threshold))
     reported = []
     result = run.run_training(CONFIG, seeds=2,
                               on_point=lambda step, means, *_: reported.append(means["solved"]))

@@ -3,6 +3,8 @@ evaluation, checked with planted evaluation values and in the training loop; wit
 `stop_when_solved` a solved seed's learner and kept actor no longer change, and a run whose
 seeds have all stopped ends."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -100,7 +102,9 @@ def test_the_loop_delivers_the_actor_of_its_best_confirmed_point():
 def solved_at_once(monkeypatch):
     """Pendulum-v1's solved return lowered below any return, so a seed is solved at its first
     evaluation point (the threshold is read when the loop is traced)."""
-    monkeypatch.setitem(envs.SOLVED_RETURN, "Pendulum-v1", -1e9)
+    spec = envs.spec("Pendulum-v1")
+    monkeypatch.setitem(envs.registry.SPECS, spec.name,
+                        dataclasses.replace(spec, solved_return=-1e9))
     return CONFIG.replace(stop_when_solved=True)
 
 
