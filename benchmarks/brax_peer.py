@@ -36,10 +36,10 @@ The persistent compilation cache is off unless --cache-dir is given (then both u
 Brax 0.14.2 calls `jax.device_put_replicated`, gone since JAX 0.10; this script puts back an
 equivalent (`device_put_replicated` below), for this script only.
 
-    python benchmarks/brax_peer.py                        # fast preset, seed 0, JSON line
-    python benchmarks/brax_peer.py --seeds 3              # seeds 0..2, medians
-    JAX_PLATFORMS=cpu python benchmarks/brax_peer.py      # CPU on a GPU machine
-    python benchmarks/brax_peer.py --quick                # tiny run: checks the script only
+    python -m benchmarks.brax_peer                        # fast preset, seed 0, JSON line
+    python -m benchmarks.brax_peer --seeds 3              # seeds 0..2, medians
+    JAX_PLATFORMS=cpu python -m benchmarks.brax_peer      # CPU on a GPU machine
+    python -m benchmarks.brax_peer --quick                # tiny run: checks the script only
 """
 
 from __future__ import annotations
@@ -53,15 +53,13 @@ import statistics
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
+import jax
+import jax.numpy as jnp
 
-import envs  # noqa: E402
-import envs  # noqa: E402
-from sac_jax.presets import PRESETS  # noqa: E402
-from sac_jax.run import compiled_program, run_training  # noqa: E402
+import envs
+from sac_jax.presets import PRESETS
+from sac_jax.run import compiled_program, run_training
 
 COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration",
                   "/jax/core/compile/jaxpr_to_mlir_module_duration",

@@ -10,8 +10,8 @@ Environment steps/s count transitions (num_envs per iteration); updates/s count 
 gradient updates (updates_per_step per iteration, each on the whole batch).
 Prints one JSON line.
 
-    python benchmarks/data_parallel.py              # 262,144 envs, batch 65,536, 4 updates/iteration
-    XLA_FLAGS=--xla_force_host_platform_device_count=2 python benchmarks/data_parallel.py \\
+    python -m benchmarks.data_parallel              # 262,144 envs, batch 65,536, 4 updates/iteration
+    XLA_FLAGS=--xla_force_host_platform_device_count=2 python -m benchmarks.data_parallel \\
         --num-envs 4 --batch-size 8 --hidden 8 --iterations 2 --repeats 2   # CPU smoke test
 """
 
@@ -19,17 +19,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
-import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import jax  # noqa: E402
+import jax
 
-from sac_jax import PRESETS, parallel  # noqa: E402
-from sac_jax.train import TrainParts, make_train_parts  # noqa: E402
+from sac_jax import PRESETS, parallel
+from sac_jax.train import TrainParts, make_train_parts
 
 
 def benchmark_config(args):

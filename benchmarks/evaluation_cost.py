@@ -1,6 +1,6 @@
 """Seconds of one evaluation of many seeds (`jax.vmap(sac_jax.evaluate)`, 5 episodes each).
 
-    python benchmarks/evaluation_cost.py RUN_DIR [--seeds 256] [--repeats 3] [--lean-stages on]
+    python -m benchmarks.evaluation_cost RUN_DIR [--seeds 256] [--repeats 3] [--lean-stages on]
 
 RUN_DIR is a finished `scripts/train.py` run whose seed 0 balances InvertedPendulum-v5 (its
 episodes last the full 1,000 steps). Three populations of `--seeds` actors, evaluated in one
@@ -22,21 +22,18 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
-import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
+import jax
+import jax.numpy as jnp
+import numpy as np
 
-import sac_jax  # noqa: E402
-from envs.vector import where_rows  # noqa: E402
-from sac_jax.evaluation import initial_states  # noqa: E402
-from sac_jax.train import agent_for  # noqa: E402
+import sac_jax
+from envs.vector import where_rows
+from sac_jax.evaluation import initial_states
+from sac_jax.train import agent_for
 
 EPISODES = 5
 

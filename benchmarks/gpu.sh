@@ -30,28 +30,28 @@ python3 -c "import jax, mujoco, flax, optax, distrax; print('jax', jax.__version
 mode=${1:-}; shift
 case "$mode" in
   env)
-    python3 benchmarks/env_throughput.py --sizes 1024 16384 131072 --steps 200 --repeats 3 \
+    python3 -m benchmarks.env_throughput --sizes 1024 16384 131072 --steps 200 --repeats 3 \
       --skip-baselines "$@" ;;
   updates)
-    python3 benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 "$@" ;;
+    python3 -m benchmarks.seed_scaling --seeds 1 16 256 1024 --updates 200 "$@" ;;
   evaluation)
     rm -rf /tmp/policy-run
     python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1
-    python3 benchmarks/evaluation_cost.py /tmp/policy-run "$@" ;;
+    python3 -m benchmarks.evaluation_cost /tmp/policy-run "$@" ;;
   profile)
-    python3 benchmarks/profile_chunk.py "$@" ;;
+    python3 -m benchmarks.profile_chunk "$@" ;;
   parallel)
-    python3 benchmarks/data_parallel.py
-    python3 benchmarks/data_parallel.py --num-envs 65536 --batch-size 16384
-    python3 benchmarks/data_parallel.py --num-envs 524288 --batch-size 131072 --repeats 3 ;;
+    python3 -m benchmarks.data_parallel
+    python3 -m benchmarks.data_parallel --num-envs 65536 --batch-size 16384
+    python3 -m benchmarks.data_parallel --num-envs 524288 --batch-size 131072 --repeats 3 ;;
   brax|brax-cpu)
     if ! out=$(python3 -c "import PIL, scipy, brax.training.agents.sac.train" 2>&1); then
       echo "$out" | tail -5; echo "brax does not import"; exit 1
     fi
     if [ "$mode" = brax-cpu ]; then export JAX_PLATFORMS=cpu; fi
-    python3 benchmarks/brax_peer.py "$@" ;;
+    python3 -m benchmarks.brax_peer "$@" ;;
   torch)
-    python3 benchmarks/torch_time_to_solve.py "$@" ;;
+    python3 -m benchmarks.torch_time_to_solve "$@" ;;
   delivered)
     python3 -c "import tyro, tensorboardX, gymnasium; from mujoco import mjx
 gymnasium.make('InvertedPendulum-v5').close()" || exit 1

@@ -1,6 +1,6 @@
 """Where one training chunk's GPU time goes: kernels and kernel time by part of the iteration.
 
-    python benchmarks/profile_chunk.py [--seeds 1 256] [--hidden-dtype bfloat16] [--chunks 4]
+    python -m benchmarks.profile_chunk [--seeds 1 256] [--hidden-dtype bfloat16] [--chunks 4]
                                        [--top 10]
 
 For each seed count: compiles the chunk of the `fast` preset as `scripts/train.py --seeds S`
@@ -25,18 +25,16 @@ import glob
 import json
 import os
 import re
-import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import jax  # noqa: E402
-from jax.profiler import ProfileData  # noqa: E402
+import jax
+from jax.profiler import ProfileData
 
-from sac_jax.parallel import seeds_program  # noqa: E402
-from sac_jax.presets import PRESETS  # noqa: E402
-from sac_jax.train import SEED_AXES, make_train_parts  # noqa: E402
+from sac_jax.parallel import seeds_program
+from sac_jax.presets import PRESETS
+from sac_jax.train import SEED_AXES, make_train_parts
 
 PARTS = ("act", "env_step", "replay_add", "replay_sample", "sac_update", "evaluate")
 

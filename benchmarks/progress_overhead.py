@@ -17,8 +17,8 @@ chunk (`summary["host_s"]` of `run_training`). On a CPU the figures of whole run
 about 10% run to run, and the single scan and the chunked runs take different numerical paths
 (float rounding of two programs), so their evaluations can last different numbers of steps.
 
-    python benchmarks/progress_overhead.py                  # the default preset, 1 seed
-    python benchmarks/progress_overhead.py --preset pendulum --seeds 4 --repeats 5
+    python -m benchmarks.progress_overhead                  # the default preset, 1 seed
+    python -m benchmarks.progress_overhead --preset pendulum --seeds 4 --repeats 5
 """
 
 from __future__ import annotations
@@ -31,14 +31,13 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import jax  # noqa: E402
-import numpy as np  # noqa: E402
+import jax
+import numpy as np
 
-import sac_jax  # noqa: E402
-from sac_jax import run_dir  # noqa: E402
-from sac_jax.run import run_training  # noqa: E402
+import sac_jax
+from sac_jax import run_dir
+from sac_jax.run import run_training
 
 
 def main():

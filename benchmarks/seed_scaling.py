@@ -1,24 +1,21 @@
 """Gradient updates/s of `sac_update` for many seeds vmapped in one program (the `fast` preset's
 networks and batch unless overridden), each seed sampling its own batches from its own buffer.
 
-    python benchmarks/seed_scaling.py --seeds 1 16 256 1024 --updates 200 [--hidden-dtype bfloat16]
+    python -m benchmarks.seed_scaling --seeds 1 16 256 1024 --updates 200 [--hidden-dtype bfloat16]
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
-import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
+import jax
+import jax.numpy as jnp
 
-import sac_jax  # noqa: E402
-from sac_jax import replay_buffer as rb  # noqa: E402
+import sac_jax
+from sac_jax import replay_buffer as rb
 
 CAPACITY = 20_480
 

@@ -1,7 +1,7 @@
 """Time to solve Gymnasium's InvertedPendulum-v5 with the seed-002 PyTorch SAC loop, on CPU.
 
 The loop of seed 002 (CleanRL-style SAC v2), with its networks and update taken from
-`tests/reference/cleanrl_sac.py` and its hyperparameters from the `cleanrl` preset (batch 256,
+`references/cleanrl_sac.py` and its hyperparameters from the `cleanrl` preset (batch 256,
 256x256 networks, policy lr 3e-4, q lr 1e-3, policy delay 2, 5,000 random steps):
 
     for global_step in 0, 1, ...:
@@ -25,9 +25,9 @@ up to the end of the solving evaluation, evaluations included), environment step
 / loop wall time, evaluations included, as benchmarks/brax_peer.py counts), updates/s (updates /
 seconds spent in sampling and updating) and the evaluation seconds.
 
-    python benchmarks/torch_time_to_solve.py                 # seed 0, all cores
-    python benchmarks/torch_time_to_solve.py --seeds 3 --threads 2
-    python benchmarks/torch_time_to_solve.py --quick         # tiny run: checks the script only
+    python -m benchmarks.torch_time_to_solve                 # seed 0, all cores
+    python -m benchmarks.torch_time_to_solve --seeds 3 --threads 2
+    python -m benchmarks.torch_time_to_solve --quick         # tiny run: checks the script only
 """
 
 from __future__ import annotations
@@ -40,15 +40,14 @@ import statistics
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import gymnasium as gym  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
+import gymnasium as gym
+import numpy as np
+import torch
 
-import envs  # noqa: E402
-from sac_jax.presets import PRESETS  # noqa: E402
-from tests.reference import cleanrl_sac  # noqa: E402
+import envs
+from sac_jax.presets import PRESETS
+from references import cleanrl_sac
 
 ENV = "InvertedPendulum-v5"
 QUICK = dict(learning_starts=300, eval_every=200, eval_episodes=1, max_steps=700)

@@ -16,7 +16,7 @@ round before the median is taken: the load of a shared machine drifts over secon
 1024^3 rate ranged 85-167 GFLOP/s between runs), and what drifts cancels out of a ratio of
 timings taken moments apart.
 
-    python benchmarks/update_throughput.py --updates 100 --rounds 10
+    python -m benchmarks.update_throughput --updates 100 --rounds 10
 """
 
 from __future__ import annotations
@@ -26,19 +26,17 @@ import itertools
 import os
 import platform
 import statistics
-import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
+import jax
+import jax.numpy as jnp
+import numpy as np
+import torch
 
-import sac_jax  # noqa: E402
-from sac_jax import replay_buffer as rb  # noqa: E402
-from tests.reference.cleanrl_sac import CleanRLSAC, make_batch  # noqa: E402
+import sac_jax
+from sac_jax import replay_buffer as rb
+from references.cleanrl_sac import CleanRLSAC, make_batch
 
 OBS, ACT, CAPACITY = 4, 1, 100_000
 

@@ -125,7 +125,7 @@ def make_train_parts(config: SACConfig,
                     config.updates_per_step, config.batch_size)
     source = keys if randomness is None else randomness
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
-    updates, batch_size = config.updates_per_step, config.batch_size
+    batch_size = config.batch_size
     chunk_iterations = math.gcd(prefill, period)
     num_iterations = prefill + config.num_evals * period
     sum_names = METRIC_NAMES + ("train_return",)

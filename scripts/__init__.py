@@ -1,1 +1,1 @@
-"""Command-line scripts (train, evaluate, render); `scripts._cli` holds what they share."""
+"""Command-line scripts (train, evaluate, render); `sac_jax.cli` holds what they share."""

@@ -25,23 +25,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import sys
 from typing import Literal, Optional
 
 import numpy as np
 import tyro
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import jax
 
-import jax  # noqa: E402
-
-import envs  # noqa: E402
-import sac_jax  # noqa: E402
-from envs.pendulum import PendulumData  # noqa: E402
-from sac_jax import run_dir  # noqa: E402
-from sac_jax.evaluation import initial_states  # noqa: E402
-from scripts._cli import MissingDependency, fail, parse, positive  # noqa: E402
+import envs
+import sac_jax
+from envs.pendulum import PendulumData
+from sac_jax import run_dir
+from sac_jax.evaluation import initial_states
+from sac_jax.cli import MissingDependency, fail, parse, positive
 
 GYMNASIUM_MISSING = 'Gymnasium is not installed: pip install "gymnasium[mujoco]"'
 

@@ -58,7 +58,6 @@ def _import_mujoco() -> None:
 
 _default_gl_backend()
 _import_mujoco()
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
@@ -70,7 +69,7 @@ import sac_jax  # noqa: E402
 from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
-from scripts._cli import MissingDependency, fail, parse, positive  # noqa: E402
+from sac_jax.cli import MissingDependency, fail, parse, positive  # noqa: E402
 
 FORMATS = (".gif", ".mp4")
 

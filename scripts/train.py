@@ -22,23 +22,22 @@ import time
 
 STARTED = time.perf_counter()  # process start, for the times to a solved policy
 
-import dataclasses
-import math
-import os
-import signal
-import sys
-from typing import Annotated, Literal, Optional, Sequence
+import dataclasses  # noqa: E402
+import math  # noqa: E402
+import os  # noqa: E402
+import signal  # noqa: E402
+import sys  # noqa: E402
+from typing import Annotated, Literal, Optional, Sequence  # noqa: E402
 
-import tyro
+import tyro  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, RunResult, run_training  # noqa: E402
-from scripts._cli import fail, parse  # noqa: E402
+from sac_jax.cli import fail, parse  # noqa: E402
 
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]

@@ -1,5 +1,5 @@
 """Shared machinery of the equivalence tests: sac_jax (preset) against a PyTorch reference
-(tests/reference/) with the same weights, batches and noise.
+(references/) with the same weights, batches and noise.
 
 `measure(family, dtype)` runs every comparison for one seed family and returns the max errors:
 
@@ -37,7 +37,7 @@ import sac_jax
 from sac_jax import losses
 from sac_jax.updates import (actor_objective, critic_objective, update_actor, update_critic,
                              update_temperature, update_value, value_objective)
-from tests.reference import cleanrl_sac, pendulum_sac, sac_v1, transfer
+from references import cleanrl_sac, pendulum_sac, sac_v1, transfer
 
 BATCH = 64
 RUN_UPDATES = 200

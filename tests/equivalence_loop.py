@@ -1,5 +1,5 @@
 """Whole training loops: sac_jax's `make_train` loop against seed 002's loop
-(tests/reference/loop.py), both fed the same recorded stream of random draws
+(references/loop.py), both fed the same recorded stream of random draws
 (`sac_jax.record_draws`) from the same initial weights and environment state.
 
 `measure(name, dtype, mutations)` runs both for the whole run of `CONFIGS[name]` (sac_jax
@@ -36,8 +36,8 @@ from sac_jax import selection
 from sac_jax.train import make_train_parts
 from tests.equivalence_harness import (max_abs, max_rel, params_of, reference_alpha,
                                        reference_log_alpha, rel, state_from_reference)
-from tests.reference import loop, transfer
-from tests.reference.cleanrl_sac import CleanRLSAC
+from references import loop, transfer
+from references.cleanrl_sac import CleanRLSAC
 
 HIDDEN = 64
 # Seed 002's SAC on Pendulum-v1 (pure JAX, compiles quickly; episodes truncated at 200 steps),

@@ -1,4 +1,4 @@
-"""scripts/_cli.py: every kind of bad command line tyro reports becomes one line naming the flag
+"""sac_jax/cli.py: every kind of bad command line tyro reports becomes one line naming the flag
 and the value (UsageError), and good input parses as tyro parses it."""
 
 import dataclasses
@@ -7,7 +7,7 @@ from typing import Literal, Optional, Tuple
 import pytest
 import tyro
 
-from scripts._cli import UsageError, parse, positive
+from sac_jax.cli import UsageError, parse, positive
 
 
 @dataclasses.dataclass(frozen=True)

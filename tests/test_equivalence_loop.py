@@ -1,5 +1,5 @@
 """The whole training loop: sac_jax's `make_train` loop against seed 002's loop
-(tests/reference/loop.py), from the same initial weights and environment state, both fed the
+(references/loop.py), from the same initial weights and environment state, both fed the
 stream of random draws `sac_jax.record_draws` makes (prefill actions, policy noise, minibatch
 slots, update noise), on Pendulum-v1 for 512 environment steps after learning starts (512
 updates; the ring buffer of 384 wraps around; episodes are truncated at 200 steps and reset).

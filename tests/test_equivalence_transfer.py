@@ -1,4 +1,4 @@
-"""Weight transfer torch <-> Flax (tests/reference/transfer.py), both directions, for the three
+"""Weight transfer torch <-> Flax (references/transfer.py), both directions, for the three
 references: a round trip is exact, and the transferred networks compute the same outputs
 (actor mean and log std, both critics, the value network) to float32 rounding (<= 1e-6)."""
 
@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from tests.equivalence_harness import FAMILIES, make_agent, make_reference
-from tests.reference import transfer
+from references import transfer
 
 
 def _forward_torch(family, ref, obs, action):

@@ -24,7 +24,7 @@ import torch.nn as nn
 import torch.nn.functional as F
 import torch.optim as optim
 
-from tests.reference.common import grads
+from references.common import grads
 
 LOG_STD_MAX = 2
 LOG_STD_MIN = -5
@@ -126,7 +126,7 @@ class CleanRLSAC:
         self.actor_optimizer = optim.Adam(list(self.actor.parameters()), lr=policy_lr)
         self.a_optimizer = optim.Adam([self.log_alpha], lr=q_lr)
 
-    # layout for tests/reference/transfer.py
+    # layout for references/transfer.py
     def networks(self):
         return {"actor": self.actor.layers(),
                 "critic": [self.qf1.layers(), self.qf2.layers()],

@@ -1,4 +1,5 @@
-"""PyTorch reference implementations of the seeds' SACs, for the equivalence tests.
+"""PyTorch reference implementations of the seeds' SACs, for the equivalence tests and the
+benchmarks that compare against PyTorch.
 
 One module per seed family, each written from the seed's code and prose with the blanks filled
 in, and with one change: every random draw (the reparameterisation noise eps) is an argument, so

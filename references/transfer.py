@@ -30,7 +30,7 @@ def _np(t) -> np.ndarray:
 
 def mlp_to_flax(layers: List) -> Dict:
     """[Linear_0, .., Linear_{L-1}] -> {'Dense_i': {'kernel': W_i^T, 'bias': b_i}}. Any object
-    with `.weight` and `.bias` tensors works (e.g. the gradients of tests/reference/common)."""
+    with `.weight` and `.bias` tensors works (e.g. the gradients of references/common)."""
     return {f"Dense_{i}": {"kernel": _np(l.weight).T.copy(), "bias": _np(l.bias)}
             for i, l in enumerate(layers)}
 

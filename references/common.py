@@ -11,7 +11,7 @@ import torch.nn as nn
 def grads(layers):
     """The current gradients of a nested dict/list of `nn.Linear` layers, in the same layout:
     each layer becomes an object with `.weight` and `.bias` holding copies of their gradients
-    (zeros where there is none), so tests/reference/transfer.py reads them like weights."""
+    (zeros where there is none), so references/transfer.py reads them like weights."""
     if isinstance(layers, dict):
         return {k: grads(v) for k, v in layers.items()}
     if isinstance(layers, (list, tuple)):

@@ -32,7 +32,7 @@ import torch.nn.functional as F
 import torch.optim as optim
 from torch.distributions import Normal
 
-from tests.reference.common import grads
+from references.common import grads
 
 
 class ValueNetwork(nn.Module):
@@ -151,7 +151,7 @@ class SoftActorCritic:
         self.Q_theta_2.optimizer = optim.Adam(self.Q_theta_2.parameters(), lr=self.beta_lr)
         self.V_psi.optimizer = optim.Adam(self.V_psi.parameters(), lr=self.beta_lr)
 
-    # layout for tests/reference/transfer.py
+    # layout for references/transfer.py
     def networks(self):
         return {"actor": self.pi_phi.layers(),
                 "critic": [self.Q_theta_1.layers(), self.Q_theta_2.layers()],

@@ -24,7 +24,7 @@ import torch.nn.functional as F
 import torch.optim as optim
 from torch.distributions import Normal
 
-from tests.reference.common import grads
+from references.common import grads
 
 LOG_SIG_MIN = -20
 LOG_SIG_MAX = 2
@@ -132,7 +132,7 @@ class SAC:
         self.policy_optim = optim.Adam(self.policy.parameters(), lr=3e-4)
         self.alpha_optim = optim.Adam([self.log_alpha], lr=3e-4)
 
-    # layout for tests/reference/transfer.py
+    # layout for references/transfer.py
     def networks(self):
         return {"actor": self.policy.layers(), "critic": self.critic.layers(),
                 "critic_target": self.critic_target.layers()}

@@ -38,7 +38,7 @@ import numpy as np
 import torch
 
 import envs
-from tests.reference.cleanrl_sac import CleanRLSAC, make_batch
+from references.cleanrl_sac import CleanRLSAC, make_batch
 
 
 class JaxVectorEnv:
