@@ -213,15 +213,23 @@ def main(argv=None) -> int:
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
     checkpoints = run_dir.CheckpointWriter(out)
     try:
-        result = run_training(
-            config, seeds=seeds, seed=info["seed"], resume=resume, on_point=on_point,
-            on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
-            started=STARTED)
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-        tensorboard.close()
-        checkpoints.close()
+        try:
+            result = run_training(
+                config, seeds=seeds, seed=info["seed"], resume=resume, on_point=on_point,
+                on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
+                started=STARTED)
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+            tensorboard.close()
+            checkpoints.close()
+    except KeyboardInterrupt:  # a second signal: stop at once; every file is whole or absent
+        name = signal.Signals(stop.signal or signal.SIGINT).name
+        kept = ("the last checkpoint written is kept: continue with --resume "
+                f"{out}" if os.path.exists(os.path.join(out, run_dir.CHECKPOINT))
+                else "no checkpoint was written")
+        print(f"error: {name} again: stopped at once; {kept}", file=sys.stderr, flush=True)
+        return EXIT_CODES.get(stop.signal, 130)
     _write_results(out, config, info, result)
     s = result.summary
     if result.status == FINISHED:

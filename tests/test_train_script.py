@@ -14,9 +14,9 @@ import signal
 import numpy as np
 import pytest
 
-import sac_jax
 import envs
-
+import sac_jax
+from sac_jax import run_dir
 from scripts import train as train_script
 
 
@@ -110,15 +110,15 @@ RUN = ["--preset", "pendulum", "--total-steps", "4000", "--eval-every", "1000",
 TIMING = ("wall_s", "steps_per_s")
 
 
-def _metrics(run_dir):
+def _metrics(path):
     """metrics.csv without the timing columns."""
-    with open(os.path.join(run_dir, "metrics.csv")) as f:
+    with open(os.path.join(path, "metrics.csv")) as f:
         return [{k: v for k, v in row.items() if k not in TIMING} for row in csv.DictReader(f)]
 
 
-def _checkpoint_arrays(run_dir):
+def _checkpoint_arrays(path):
     from flax import serialization
-    with open(os.path.join(run_dir, "checkpoint.msgpack"), "rb") as f:
+    with open(os.path.join(path, "checkpoint.msgpack"), "rb") as f:
         return serialization.msgpack_restore(f.read())["leaves"]
 
 
@@ -198,6 +198,29 @@ def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
     summary = json.load(open(os.path.join(runs["interrupted"], "summary.json")))
     assert summary["status"] == "interrupted" and summary["total_steps"] == 2000
     assert os.path.exists(os.path.join(runs["interrupted"], "checkpoint.msgpack"))
+
+
+def test_a_second_sigint_stops_at_once_with_one_line(tmp_path, capsys):
+    """Two signals at the first evaluation point: the second ends the run where it is, with one
+    line naming what is kept, exit 130 and no traceback; the checkpoint on disk is whole."""
+    out = str(tmp_path / "twice")
+    line = train_script._progress_line
+
+    def progress_then_interrupt_twice(*args):
+        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGINT)
+        return line(*args)
+
+    train_script._progress_line = progress_then_interrupt_twice
+    try:
+        code = train_script.main(RUN + ["--out", out])
+    finally:
+        train_script._progress_line = line
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 130, err
+    assert err[-1].startswith("error: SIGINT again: stopped at once; ") and "Traceback" not in "".join(err)
+    if os.path.exists(os.path.join(out, "checkpoint.msgpack")):
+        run_dir.load_checkpoint(out)  # whole: it loads
 
 
 def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs):
