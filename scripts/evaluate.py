@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import sys
+import warnings
 from typing import Literal, Optional
 
 import numpy as np
@@ -123,7 +124,9 @@ def _make_gymnasium(gym_id: str):
     except ImportError:
         raise MissingDependency(GYMNASIUM_MISSING) from None
     try:
-        return gymnasium.make(gym_id)
+        with warnings.catch_warnings():  # e.g. "InvertedPendulum-v4 is out of date": asked for
+            warnings.simplefilter("ignore", DeprecationWarning)
+            return gymnasium.make(gym_id)
     except gymnasium.error.DependencyNotInstalled as error:  # e.g. no mujoco for MuJoCo envs
         raise MissingDependency(f"{str(error).strip().splitlines()[0]}; "
                                 f"{GYMNASIUM_MISSING}") from None

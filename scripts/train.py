@@ -161,8 +161,11 @@ def _outcome(summary: dict) -> str:
         text = f"delivered policy return per seed {[round(r, 1) for r in returns]}"
         if threshold is None:
             return text
-        if None in solved:
-            return text + f"; solved (>= {threshold:g}) at step {solved}"
+        if all(step is None for step in solved):
+            return text + f"; not solved (>= {threshold:g})"
+        if None in solved:  # '-': not solved
+            steps = ", ".join("-" if step is None else str(step) for step in solved)
+            return text + f"; solved (>= {threshold:g}) at step [{steps}]"
         return (text + f"; solved at step {solved}, after {summary['solved_wall_s']} s of "
                 f"training ({summary['solved_process_s']} s from process start)")
     text = (f"delivered policy return mean {sum(returns) / len(returns):.1f} (min "

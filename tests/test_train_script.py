@@ -103,6 +103,15 @@ def test_progress_line_counts_the_seeds_solved_and_stopped():
     assert "solved" not in train_script._progress_line(7168, point, 1, 1.7)
 
 
+def test_the_summary_line_never_prints_none():
+    summary = {"delivered_return": [66.5, 1000.0], "solved_at_step": [None, 7168],
+               "solved_threshold": 950.0}
+    assert train_script._outcome(summary).endswith("; solved (>= 950) at step [-, 7168]")
+    summary.update(solved_at_step=[None, None])
+    assert train_script._outcome(summary).endswith("; not solved (>= 950)")
+    assert "None" not in train_script._outcome(summary)
+
+
 # ---------------------------------------------------------------- runs (Pendulum-v1, tiny)
 RUN = ["--preset", "pendulum", "--total-steps", "4000", "--eval-every", "1000",
        "--learning-starts", "1000", "--buffer-size", "4000", "--eval-episodes", "2",
