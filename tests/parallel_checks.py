@@ -2,7 +2,17 @@
 script in a subprocess with 2 forced CPU devices (XLA_FLAGS must be set before JAX is imported)
 and asserts on the JSON object it prints, one entry per named check:
 
-    XLA_FLAGS=--xla_force_host_platform_device_count=2 python tests/parallel_checks.py updates seeds
+    XLA_FLAGS=--xla_force_host_platform_device_count=2 JAX_ENABLE_X64=1 \
+        python tests/parallel_checks.py updates seeds one_device
+
+The comparisons ("updates", "seeds", "one_device", "separate") compare two compiled programs
+that round differently, over up to 768 updates, where training amplifies a rounding difference
+by a factor of 1e4..1e5 (float32: 6e-8 became 1.5e-4..4e-3 relative at the first evaluation,
+depending on the CPU's instruction set). They need JAX_ENABLE_X64=1 and run with the learner
+state (parameters, targets, optimiser states, temperature) in float64 (`float64_train`), as the
+x64 equivalence tests do: the same amplification then leaves about 1e-11, and a bound of 1e-9
+holds on any CPU. Environments keep their float32 observations and rewards (their contract),
+and the reported metrics stay float32 (`make_train` casts them). "learning" runs in float32.
 """
 
 from __future__ import annotations
@@ -20,6 +30,7 @@ from jax.sharding import NamedSharding  # noqa: E402
 from jax.sharding import PartitionSpec as P  # noqa: E402
 
 import sac_jax  # noqa: E402
+from sac_jax.train import make_train_parts  # noqa: E402
 from sac_jax import parallel  # noqa: E402
 from sac_jax.compilation_cache import enable_compilation_cache  # noqa: E402
 
@@ -41,6 +52,91 @@ TRAIN_CONFIG = sac_jax.PRESETS["pendulum"].replace(num_envs=2, updates_per_step=
 SMALL_CONFIG = sac_jax.PRESETS["pendulum"].replace(
     total_steps=1024, learning_starts=256, eval_every=256, batch_size=64, num_envs=2,
     updates_per_step=2, actor_hidden=(32, 32), critic_hidden=(32, 32), eval_episodes=2)
+
+
+LEARNER_BOUND = 1e-9
+"""Bound on the per-array relative difference (max|a - b| / max|b|) of two float64 learner
+states after up to 768 updates: float64 rounding, 2^-52 = 2.2e-16, times the amplification of
+the training loop over that horizon, which the same comparisons in float32 show to be at most
+about 1e5 (float32's 2^-24 = 6e-8 became at most 4.2e-3 relative on AVX-512, AVX2 and SSE4.2
+code): at most about 2e-11, so 1e-9 leaves a factor of 50. One float32 rounding error entering
+the learner (what a float32 bug would bring) is amplified to about 1e-3."""
+METRIC_ULPS = 512
+"""Bound on a float32 metric's difference, in float32 ulps of its largest magnitude over the
+run, between two runs whose float64 learners agree to 1e-9. A metric is the mean of a period's
+n = 128 per-iteration float32 values, summed in float32 (an evaluation return: 200 float32
+rewards summed): each of its 2n + 1 roundings may go the other way by one ulp of what it rounds,
+up to k ulps of a term for the k-th partial sum, so after dividing by n at most n + 2 = 130 ulps
+of the largest term; 512 allows the largest term to be about 4 times the largest period mean."""
+
+
+def run_parallel_checks(*names, x64: bool = False) -> dict:
+    """This script's checks NAMES in a subprocess with 2 forced CPU devices (added to the
+    caller's XLA_FLAGS), with JAX_ENABLE_X64=1 if `x64`: the JSON object it prints."""
+    from tests.subprocess_json import run_json
+
+    env = {"XLA_FLAGS": "--xla_force_host_platform_device_count=2"}
+    if x64:
+        env["JAX_ENABLE_X64"] = "1"
+    return run_json([os.path.abspath(__file__), *names], **env)
+
+
+def to_float64(tree):
+    """`tree` with every floating leaf in float64 (needs JAX_ENABLE_X64=1)."""
+    return jax.tree_util.tree_map(
+        lambda x: x.astype(jnp.float64) if jnp.issubdtype(x.dtype, jnp.floating) else x, tree)
+
+
+def float64_train(parts, metrics=lambda outputs: outputs):
+    """`train(key) -> (runner, metrics)` that runs `parts` as `make_train` does (`init`, then
+    `num_chunks` chunks in one scan) with the learner state cast to float64 after `init`."""
+    def train(key):
+        runner = parts.init(key)
+        runner = runner.replace(sac=to_float64(runner.sac))
+        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), runner, None,
+                              length=parts.num_chunks)[0]
+        return runner, metrics(runner.outputs)
+    return train
+
+
+def float_dtypes(tree) -> list:
+    """The dtypes of the floating leaves of `tree`, sorted."""
+    return sorted({str(np.asarray(x).dtype) for x in jax.tree_util.tree_leaves(tree)
+                   if np.issubdtype(np.asarray(x).dtype, np.floating)})
+
+
+def learner_rel_diff(a, b) -> float:
+    """Per array max|a - b| / max|b| over every floating array of two learner states
+    (`SACState`: parameters, targets, optimiser moments, log alpha and alpha), max over arrays;
+    0 where both are all zero."""
+    worst = 0.0
+    for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b), strict=True):
+        x, y = np.asarray(x), np.asarray(y)
+        assert x.shape == y.shape and x.dtype == y.dtype
+        if not np.issubdtype(y.dtype, np.floating):
+            continue
+        scale = float(np.max(np.abs(y), initial=0.0))
+        diff = float(np.max(np.abs(x.astype(np.float64) - y), initial=0.0))
+        worst = max(worst, diff / scale if scale else diff)
+    return worst
+
+
+def metrics_ulps(a: dict, b: dict) -> float:
+    """max over metrics of max_points |a - b| / ulp(max_points |b|): the difference in float32
+    units in the last place of the metric's largest magnitude over the run; inf where `a` and
+    `b` are not finite at the same entries. The metrics are float32 whatever the learner's
+    dtype."""
+    worst = 0.0
+    for name in b:
+        x, y = np.asarray(a[name], np.float64), np.asarray(b[name], np.float64)
+        finite = np.isfinite(y)
+        if not np.array_equal(finite, np.isfinite(x)) or not np.array_equal(x[~finite], y[~finite], equal_nan=True):
+            return float("inf")
+        if not finite.any():
+            continue
+        ulp = float(np.spacing(np.float32(np.max(np.abs(y[finite])))))
+        worst = max(worst, float(np.max(np.abs(x - y)[finite])) / ulp)
+    return worst
 
 
 def max_abs(tree) -> float:
@@ -88,12 +184,12 @@ def _global_batch(key, batch_size):
 
 
 def check_updates() -> dict:
-    """One `sac_update` on a global batch of 32 with injected noise: on one device, and data
-    parallel over 2 devices as `parallel.make_data_parallel_parts` runs it (the update vmapped
-    over 2 shares of 16 samples and the matching noise, axis "data", the shares split over the
-    devices), each share's resulting state (parameters, targets, optimiser states, temperature)
-    and metrics compared. The state first takes 3 single-device updates so Adam's moments are
-    not at their first step. Control: the same without averaging over the axis."""
+    """One `sac_update` on a global batch of 32 with injected noise, float64: on one device, and
+    data parallel over 2 devices as `parallel.make_data_parallel_parts` runs it (the update
+    vmapped over 2 shares of 16 samples and the matching noise, axis "data", the shares split
+    over the devices), each share's resulting state (parameters, targets, optimiser states,
+    temperature) and metrics compared. The state first takes 3 single-device updates so Adam's
+    moments are not at their first step. Control: the same without averaging over the axis."""
     mesh = parallel.make_mesh(parallel.DATA)
     split, whole = NamedSharding(mesh, P("data")), NamedSharding(mesh, P())
     batch_axis = {"critic": 0, "value": 0, "actor": 1, "temperature": 1}  # of each noise array
@@ -106,7 +202,7 @@ def check_updates() -> dict:
     out = {}
     for name, config in UPDATE_CONFIGS.items():
         agent = _pendulum_agent(config)
-        state = agent.init(jax.random.key(0))
+        state = to_float64(agent.init(jax.random.key(0)))
         for i in range(3):
             state = update(agent, state, _global_batch(jax.random.key(10 + i), 32),
                            jax.random.key(20 + i))[0]
@@ -128,47 +224,86 @@ def check_updates() -> dict:
         for label, result in (("averaged", averaged), ("control", control)):
             devices = [jax.tree_util.tree_map(lambda x: x[d], result) for d in range(2)]
             entry[label] = {
-                "state_diff": max(max_abs_diff(d[0], single[0]) for d in devices),
+                "state_diff": max(learner_rel_diff(d[0], single[0]) for d in devices),
                 "between_devices": max_abs_diff(devices[0][0], devices[1][0]),
                 "metrics_rel_diff": max(relative_diff(d[1], single[1]) for d in devices),
             }
-        entry["params_scale"] = max_abs((single[0].actor_params, single[0].critic_params))
+        entry["learner_dtypes"] = float_dtypes(single[0])
         entry["metrics"] = sorted(single[1])
         out[name] = entry
     return out
 
 
-def check_seeds() -> dict:
-    """Two seeds of `make_train(SMALL_CONFIG)` sharded over the 2 devices (`over_seeds`) and
-    vmapped on one device."""
+def _seed_runs():
+    """(keys, the float64 `make_train` loop of SMALL_CONFIG, its jitted vmap over the 2 seeds'
+    keys and the result), shared by "seeds" and "separate"."""
     keys = jax.random.split(jax.random.key(3), 2)
-    train = sac_jax.make_train(SMALL_CONFIG)
+    train = float64_train(make_train_parts(SMALL_CONFIG))
+    return keys, train, jax.device_get(jax.jit(jax.vmap(train))(keys))
+
+
+_SEED_RUNS = []
+
+
+def seed_runs():
+    if not _SEED_RUNS:
+        _SEED_RUNS.append(_seed_runs())
+    return _SEED_RUNS[0]
+
+
+def check_seeds() -> dict:
+    """Two seeds of the float64 `make_train` loop of SMALL_CONFIG sharded over the 2 devices
+    (`over_seeds`) and vmapped on one device."""
+    keys, train, plain = seed_runs()
     mesh = parallel.make_mesh(parallel.SEEDS)
     sharded = parallel.over_seeds(train, mesh)(keys)
     devices = sorted(d.id for d in sharded[1]["eval_return"].sharding.device_set)
     shard_rows = [s.data.shape[0] for s in sharded[1]["eval_return"].addressable_shards]
     sharded = jax.device_get(sharded)
-    plain = jax.device_get(jax.jit(jax.vmap(train))(keys))
     return {"devices": devices, "rows_per_device": shard_rows,
+            "learner_dtypes": float_dtypes(plain[0].sac),
+            "learner_rel_diff": learner_rel_diff(sharded[0].sac, plain[0].sac),
+            "metrics_ulps": metrics_ulps(sharded[1], plain[1]),
             "metrics_rel_diff": relative_diff_per_point(sharded[1], plain[1]),
-            "params_diff": max_abs_diff(sharded[0].sac.actor_params, plain[0].sac.actor_params),
-            "params_scale": max_abs(plain[0].sac.actor_params),
-            "seeds_params_diff": max_abs_diff(
+            "seeds_rel_diff": learner_rel_diff(
                 jax.tree_util.tree_map(lambda x: x[0], plain[0].sac.actor_params),
                 jax.tree_util.tree_map(lambda x: x[1], plain[0].sac.actor_params))}
 
 
+def check_separate() -> dict:
+    """The same two seeds run separately (`jax.jit(train)` on each key) against the vmap of
+    "seeds"; test_train.py asserts on it."""
+    keys, train, plain = seed_runs()
+    runs = [jax.device_get(jax.jit(train)(key)) for key in keys]
+    batched = [jax.tree_util.tree_map(lambda x: x[i], (plain[0].sac, plain[1]))
+               for i in range(2)]
+    return {"learner_dtypes": float_dtypes(runs[0][0].sac),
+            "learner_rel_diff": [learner_rel_diff(b[0], r[0].sac)
+                                 for b, r in zip(batched, runs)],
+            "metrics_ulps": [metrics_ulps(b[1], r[1]) for b, r in zip(batched, runs)],
+            "metrics_rel_diff": [relative_diff(b[1], r[1]) for b, r in zip(batched, runs)],
+            "seeds_rel_diff": learner_rel_diff(runs[0][0].sac.actor_params,
+                                               runs[1][0].sac.actor_params),
+            "seeds_critic_loss_rel_diff": relative_diff(
+                {"critic_loss": runs[0][1]["critic_loss"]},
+                {"critic_loss": runs[1][1]["critic_loss"]})}
+
+
 def check_one_device() -> dict:
-    """`make_data_parallel_train` on a one-device mesh against `make_train`, same key; the
-    random-action prefill transitions of the buffer compared too."""
+    """The float64 `make_data_parallel_parts` loop on a one-device mesh against the float64
+    `make_train` loop, same key; the random-action prefill transitions of the buffer compared
+    too."""
     key = jax.random.key(3)
     mesh = parallel.make_mesh(parallel.DATA, jax.devices()[:1])
-    ours = jax.device_get(jax.jit(parallel.make_data_parallel_train(SMALL_CONFIG, mesh))(key))
-    plain = jax.device_get(jax.jit(sac_jax.make_train(SMALL_CONFIG))(key))
+    ours = jax.device_get(jax.jit(float64_train(
+        parallel.make_data_parallel_parts(SMALL_CONFIG, mesh),
+        parallel.data_parallel_metrics))(key))
+    plain = jax.device_get(jax.jit(float64_train(make_train_parts(SMALL_CONFIG)))(key))
     prefill = SMALL_CONFIG.learning_starts
-    return {"metrics_rel_diff": relative_diff_per_point(ours[1], plain[1]),
-            "params_diff": max_abs_diff(ours[0].sac.actor_params, plain[0].sac.actor_params),
-            "params_scale": max_abs(plain[0].sac.actor_params),
+    return {"learner_dtypes": float_dtypes(plain[0].sac),
+            "learner_rel_diff": learner_rel_diff(ours[0].sac, plain[0].sac),
+            "metrics_ulps": metrics_ulps(ours[1], plain[1]),
+            "metrics_rel_diff": relative_diff_per_point(ours[1], plain[1]),
             "prefill_diff": max_abs_diff(
                 jax.tree_util.tree_map(lambda x: x[0, :prefill], ours[0].buffer.data),
                 jax.tree_util.tree_map(lambda x: x[:prefill], plain[0].buffer.data))}
@@ -186,14 +321,18 @@ def check_learning() -> dict:
             "finite_params": bool(np.isfinite(max_abs(params)))}
 
 
-CHECKS = {"updates": check_updates, "seeds": check_seeds, "one_device": check_one_device,
-          "learning": check_learning}
+CHECKS = {"updates": check_updates, "seeds": check_seeds, "separate": check_separate,
+          "one_device": check_one_device, "learning": check_learning}
+FLOAT64_CHECKS = ("updates", "seeds", "separate", "one_device")
 
 
 def main(names):
     if jax.device_count() != 2:
         raise SystemExit(f"needs 2 devices, found {jax.devices()}; set XLA_FLAGS="
                          "--xla_force_host_platform_device_count=2")
+    if jax.config.jax_enable_x64 != any(name in FLOAT64_CHECKS for name in names):
+        raise SystemExit(f"checks {names}: set JAX_ENABLE_X64=1 for {FLOAT64_CHECKS} "
+                         "(and only for them)")
     enable_compilation_cache()
     print(json.dumps({name: CHECKS[name]() for name in names}))
 

@@ -14,9 +14,9 @@ buffer's terminal flags made gamma (1 - d) a float32 product (gamma rounded to 0
 a planted bug moves the parameters by >= 0.27 (`MUTATIONS`; asserted > 1e-2).
 
 float32: trajectories fan out (relative 0.24 after 512 updates, transitions 0.2 apart), as 200
-updates on fixed batches do (test_equivalence_float32.py): parameters relative <= 1 guards
-against blow-ups only, alpha relative <= 1e-3 (measured 9e-6); the float64 test is the exact
-check. Both precisions check the schedule exactly: the numbers of updates and of transitions.
+updates on fixed batches do (test_equivalence_float32.py), and no bound follows from float32's
+precision over 512 updates: parameters and alpha relative <= 1 guard against blow-ups only
+(measured 0.24 and 9e-6); the float64 test is the exact check. Both precisions check the schedule exactly: the numbers of updates and of transitions.
 """
 
 from __future__ import annotations
@@ -43,6 +43,9 @@ def float64_errors():
 
 @pytest.mark.parametrize("name", list(CONFIGS))
 def test_float64_loop_matches_the_reference(float64_errors, name):
+    """1e-10: float64's 2.2e-16 times the loop's amplification over 512 updates, which stays
+    linear in float64 (no ReLU unit switches on a 1e-16 difference; float32's 0.24 comes from
+    such switches): measured x1.2e3 (2.7e-13); 1e-10 allows x4.5e5."""
     e = float64_errors[name]
     _check_schedule(name, e)
     assert len(e["params_by_chunk"]) == 5 and max(e["params_by_chunk"]) <= 1e-10, e
@@ -52,11 +55,13 @@ def test_float64_loop_matches_the_reference(float64_errors, name):
 
 @pytest.mark.parametrize("mutation", MUTATIONS)
 def test_float64_comparison_detects_a_planted_bug(float64_errors, mutation):
+    """A planted bug moves the parameters by >= 0.27, far above the 1e-10 above (asserted 1e-2)."""
     assert float64_errors["seed"][f"{mutation}/params"] > 1e-2, float64_errors["seed"]
 
 
 def test_float32_loop_stays_with_the_reference():
+    """A blow-up guard, not a rounding bound (module docstring); the schedule exactly."""
     e = measure("seed", "float32")
     _check_schedule("seed", e)
     assert e["params"] <= 1.0, e
-    assert e["alpha"] <= 1e-3, e
+    assert e["alpha"] <= 1.0, e
