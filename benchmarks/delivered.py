@@ -87,6 +87,8 @@ def main() -> None:
     parser.add_argument("--many", type=int, default=32, help="seeds of the one many-seed run")
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--cold", action="store_true", help="also one run from an empty cache")
+    parser.add_argument("--name", default="delivered",
+                        help="results file: benchmarks/results/NAME.json")
     parser.add_argument("--judge", choices=("gymnasium", "ours"), default="gymnasium",
                         help="where the many-seed run's delivered policies are evaluated (ours: "
                         "all seeds at once on the device, for hundreds of seeds)")
@@ -134,7 +136,7 @@ def main() -> None:
             "max_solved_process_s": float(np.max(times)),
             "gymnasium_at_least_950": sum(r["gymnasium_return"] >= 950 for r in runs),
             "seeds": len(runs)}
-    write_result("delivered", result, provenance())
+    write_result(args.name, result, provenance())
 
 
 if __name__ == "__main__":
