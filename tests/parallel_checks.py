@@ -3,7 +3,7 @@ script in a subprocess with 2 forced CPU devices (XLA_FLAGS must be set before J
 and asserts on the JSON object it prints, one entry per named check:
 
     XLA_FLAGS=--xla_force_host_platform_device_count=2 JAX_ENABLE_X64=1 \
-        python tests/parallel_checks.py updates seeds one_device
+        python -m tests.parallel_checks updates seeds one_device
 
 The comparisons ("updates", "seeds", "one_device", "separate") compare two compiled programs
 that round differently, over up to 768 updates, where training amplifies a rounding difference
@@ -18,21 +18,18 @@ and the reported metrics stay float32 (`make_train` casts them). "learning" runs
 from __future__ import annotations
 
 import json
-import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import NamedSharding
+from jax.sharding import PartitionSpec as P
 
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
-from jax.sharding import NamedSharding  # noqa: E402
-from jax.sharding import PartitionSpec as P  # noqa: E402
-
-import sac_jax  # noqa: E402
-from sac_jax.train import make_train_parts  # noqa: E402
-from sac_jax import parallel  # noqa: E402
-from sac_jax.compilation_cache import enable_compilation_cache  # noqa: E402
+import sac_jax
+from sac_jax.train import make_train_parts
+from sac_jax import parallel, selection
+from sac_jax.compilation_cache import enable_compilation_cache
 
 # Pendulum-v1 shapes (O = 3, A = 1), global batch of 32. v2 with CleanRL's policy delay of 2:
 # the compared update is the 4th, which runs the actor block (2 actor and temperature steps)
@@ -78,7 +75,7 @@ def run_parallel_checks(*names, x64: bool = False) -> dict:
     env = {"XLA_FLAGS": "--xla_force_host_platform_device_count=2"}
     if x64:
         env["JAX_ENABLE_X64"] = "1"
-    return run_json([os.path.abspath(__file__), *names], **env)
+    return run_json(["-m", "tests.parallel_checks", *names], **env)
 
 
 def to_float64(tree):
@@ -89,10 +86,12 @@ def to_float64(tree):
 
 def float64_train(parts, metrics=lambda outputs: outputs):
     """`train(key) -> (runner, metrics)` that runs `parts` as `make_train` does (`init`, then
-    `num_chunks` chunks in one scan) with the learner state cast to float64 after `init`."""
+    `num_chunks` chunks in one scan) with the learner state, and the delivered actor kept from
+    it, cast to float64 after `init`."""
     def train(key):
         runner = parts.init(key)
-        runner = runner.replace(sac=to_float64(runner.sac))
+        sac = to_float64(runner.sac)
+        runner = runner.replace(sac=sac, delivered=selection.init(sac.actor_params))
         runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), runner, None,
                               length=parts.num_chunks)[0]
         return runner, metrics(runner.outputs)
