@@ -58,10 +58,10 @@ gymnasium.make('InvertedPendulum-v5').close()" || exit 1
     # delivered.py holds JAX on the GPU (its judging) while it starts each training process:
     # with JAX's default preallocation of 75 % of the memory the next one cannot allocate.
     export XLA_PYTHON_CLIENT_PREALLOCATE=false
-    rm -f benchmarks/results/delivered.json  # this copy's, from the tree that travelled
+    rm -f benchmarks/results/delivered*.json  # this copy's, from the tree that travelled
     python3 -m benchmarks.delivered --seeds 0 1 2 --many 256 --judge ours "$@"; rc=$?
-    cat benchmarks/results/delivered.json
-    if [ -n "${OUT:-}" ]; then cp benchmarks/results/delivered.json "$OUT/"; fi
+    cat benchmarks/results/delivered*.json
+    if [ -n "${OUT:-}" ]; then cp benchmarks/results/delivered*.json "$OUT/"; fi
     exit $rc ;;
   presets)
     rm -f benchmarks/results/presets_delivered.json
