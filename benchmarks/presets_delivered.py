@@ -3,11 +3,10 @@ scores every seed's delivered policy over 10 episodes of Gymnasium's twin of the
 environment, from fresh initial states, where Gymnasium has no twin: the Bullet-style
 pendulum of `v1`), against the task's solved return.
 
-    python -m benchmarks.presets_delivered                         # cleanrl, pendulum, v1, idp
+    python -m benchmarks.presets_delivered          # cleanrl, pendulum, v1, double-pendulum
     python -m benchmarks.presets_delivered --runs pendulum --seeds 2
 
-A run is a preset, or `idp`: the `fast` preset on InvertedDoublePendulum-v5 with the budget
-`--idp-steps`. Writes benchmarks/results/presets_delivered.json (command, machine, versions,
+Writes benchmarks/results/presets_delivered.json (command, machine, versions,
 date, every seed's score).
 """
 
@@ -29,14 +28,6 @@ from sac_jax.train import agent_for
 from scripts.evaluate import gymnasium_returns
 
 
-def config_of(name: str, idp_steps: int, confirm_episodes: int) -> sac_jax.SACConfig:
-    if name == "idp":
-        return sac_jax.PRESETS["fast"].replace(
-            env="InvertedDoublePendulum-v5", total_steps=idp_steps, buffer_size=idp_steps,
-            stop_return=None, confirm_episodes=confirm_episodes)
-    return sac_jax.PRESETS[name]
-
-
 def score(policy: SavedPolicy, episodes: int, seed: int) -> float:
     """Mean return over `episodes` episodes in Gymnasium's twin, else in ours."""
     env_name = policy.config.env
@@ -55,16 +46,15 @@ def score(policy: SavedPolicy, episodes: int, seed: int) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", nargs="+", default=["cleanrl", "pendulum", "v1", "idp"])
+    parser.add_argument("--runs", nargs="+", choices=sorted(sac_jax.PRESETS),
+                        default=["cleanrl", "pendulum", "v1", "double-pendulum"])
     parser.add_argument("--seeds", type=int, default=4)
     parser.add_argument("--episodes", type=int, default=10)
-    parser.add_argument("--idp-steps", type=int, default=102_400)
-    parser.add_argument("--idp-confirm-episodes", type=int, default=20)
     args = parser.parse_args()
     sac_jax.enable_compilation_cache()
     results = {}
     for name in args.runs:
-        config = config_of(name, args.idp_steps, args.idp_confirm_episodes)
+        config = sac_jax.PRESETS[name]
         start = time.perf_counter()
         result = run_training(config, seeds=args.seeds)
         agent, _ = agent_for(config)
