@@ -131,23 +131,30 @@ def _checkpoint_arrays(path):
         return serialization.msgpack_restore(f.read())["leaves"]
 
 
+def _interrupted_run(out: str, signals: int) -> int:
+    """`main(RUN --out out)` sent `signals` real SIGINTs at its first evaluation point, while
+    the run is going; its exit code."""
+    line = train_script._progress_line
+
+    def progress_then_interrupt(*args):
+        for _ in range(signals):
+            os.kill(os.getpid(), signal.SIGINT)
+        return line(*args)
+
+    train_script._progress_line = progress_then_interrupt
+    try:
+        return train_script.main(RUN + ["--out", out])
+    finally:
+        train_script._progress_line = line
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """An uninterrupted run, and the same run stopped by SIGINT at its first evaluation point."""
     root = tmp_path_factory.mktemp("runs")
     whole, stopped = str(root / "whole"), str(root / "stopped")
     assert train_script.main(RUN + ["--out", whole]) == 0
-    line = train_script._progress_line
-
-    def progress_then_interrupt(*args):  # a real signal, delivered while the run is going
-        os.kill(os.getpid(), signal.SIGINT)
-        return line(*args)
-
-    train_script._progress_line = progress_then_interrupt
-    try:
-        code = train_script.main(RUN + ["--out", stopped])
-    finally:
-        train_script._progress_line = line
+    code = _interrupted_run(stopped, signals=1)
     interrupted = str(root / "interrupted")
     shutil.copytree(stopped, interrupted)
     return {"whole": whole, "stopped": stopped, "interrupted": interrupted, "code": code,
@@ -214,18 +221,7 @@ def test_a_second_sigint_stops_at_once_with_one_line(tmp_path, capsys):
     """Two signals at the first evaluation point: the second ends the run where it is, with one
     line naming what is kept, exit 130 and no traceback; the checkpoint on disk is whole."""
     out = str(tmp_path / "twice")
-    line = train_script._progress_line
-
-    def progress_then_interrupt_twice(*args):
-        os.kill(os.getpid(), signal.SIGINT)
-        os.kill(os.getpid(), signal.SIGINT)
-        return line(*args)
-
-    train_script._progress_line = progress_then_interrupt_twice
-    try:
-        code = train_script.main(RUN + ["--out", out])
-    finally:
-        train_script._progress_line = line
+    code = _interrupted_run(out, signals=2)
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 130, err
     assert err[-1].startswith("error: SIGINT again: stopped at once; ") and "Traceback" not in "".join(err)
