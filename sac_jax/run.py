@@ -17,6 +17,7 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import functools
+import resource
 import time
 from typing import Callable, Dict, Optional
 
@@ -25,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import envs
+from sac_jax import memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import over_seed_axis, seeds_program
@@ -119,7 +121,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
                  on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
                  should_stop: Optional[Callable[[], bool]] = None,
-                 started: Optional[float] = None) -> RunResult:
+                 started: Optional[float] = None, check_memory: bool = True) -> RunResult:
     """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split over the
     local devices when they divide `seeds`) driven one chunk at a time. With
     `config.stop_when_solved` the run ends as FINISHED once every seed has stopped.
@@ -134,10 +136,14 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     should_stop(): polled after every chunk; True ends the run as INTERRUPTED.
     started: `time.perf_counter()` at the start of the process, for the summary's times from
         process start (default: this call's start).
+    check_memory: refuse (`sac_jax.memory.MemoryRefused`, before anything is compiled) a run
+        whose peak memory exceeds what is available (`sac_jax.memory.check`).
     A parameter, optimiser state or temperature that becomes non-finite ends the run as
     NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good.
     """
     threshold = envs.spec(config.env).solved_return
+    if check_memory:
+        memory.check(config, seeds)
     t0 = time.perf_counter()
     parts, init, chunk, finite, sharding = compiled_program(config, seeds)
     if resume is None:
@@ -241,6 +247,10 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
         "all_solved_wall_s": wall(slowest),
         "all_solved_process_s": process(slowest),
         "stopped": [bool(x) for x in np.ravel(stopped)],
+        "peak_host_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+        "peak_device_bytes": (jax.local_devices()[0].memory_stats() or {}).get(
+            "peak_bytes_in_use"),
+        "memory_model_peak_bytes": memory.need(config, len(stopped)).peak,
         "startup_s": round(position["startup_s"], 3),
         "compile_s": round(position["compile_s"], 3),
         "run_s": round(position["run_s"], 3),

@@ -35,13 +35,14 @@ import tyro  # noqa: E402
 import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax import run_dir  # noqa: E402
+from sac_jax import memory, run_dir  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, RunResult, run_training  # noqa: E402
 from sac_jax.cli import fail, parse  # noqa: E402
 
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
-RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir")
+RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
+                "--no-memory-check")
 """The flags a resumed run accepts; it keeps its own configuration."""
 
 
@@ -67,6 +68,9 @@ class TrainArgs:
     without compiling."""
     cache_dir: Optional[str] = None
     """Compilation cache directory (default $JAX_COMPILATION_CACHE_DIR or ~/.cache/sac-jax/jax)."""
+    memory_check: bool = True
+    """Refuse, before anything is written or compiled, a run whose peak memory (replay and
+    state, twice at a checkpoint: `sac_jax.memory`) exceeds the memory available."""
     config: Annotated[SACConfig, tyro.conf.OmitArgPrefixes] = PRESETS[DEFAULT_PRESET]
 
     def __post_init__(self):
@@ -118,23 +122,37 @@ def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
 
 
 def _new_run(args: TrainArgs):
-    """(config, run info, run directory) of a fresh run; the directory is created last, once
-    every input is known to be good. ValueError on bad input."""
+    """(config, run info, run directory, memory line) of a fresh run; the directory is created
+    last, once every input is known to be good and the run to fit in memory. ValueError on bad
+    input (`memory.MemoryRefused` for a run that cannot fit)."""
     info = {"preset": args.preset, "seeds": args.seeds, "seed": args.seed}
     out = args.out or os.path.join(
         "runs", f"{args.preset}-{args.config.env}-{time.strftime('%Y%m%d-%H%M%S')}")
+    if os.path.exists(out):
+        raise run_dir.RunDirError(f"--out={out}: already exists; choose a new run directory")
+    fits = _memory_line(args, args.config, args.seeds)
     run_dir.create(out, args.config, **info)
-    return args.config, info, out
+    return args.config, info, out, fits
+
+
+def _memory_line(args: TrainArgs, config: SACConfig, seeds: int) -> str:
+    """`memory.check`'s line (MemoryRefused if the run cannot fit), or what was skipped."""
+    if not args.memory_check:
+        return "memory not checked (--no-memory-check)"
+    return memory.check(config, seeds)
 
 
 def _resumed_run(args: TrainArgs):
-    """(config, run info, run directory, (state, position)) of the run in `--resume`."""
+    """(config, run info, run directory, (state, position), memory line) of the run in
+    `--resume`."""
+    config, info = run_dir.read_config(args.resume)
+    fits = _memory_line(args, config, info["seeds"])
     config, info, state, position = run_dir.load_checkpoint(args.resume)
     from sac_jax.train import make_train_parts
     if position["chunks_done"] >= make_train_parts(config).num_chunks or (
             config.stop_when_solved and all(state.stopped)):
         raise ValueError(f"--resume={args.resume}: this run already finished")
-    return config, info, args.resume, (state, position)
+    return config, info, args.resume, (state, position), fits
 
 
 class _StopRequest:
@@ -192,9 +210,9 @@ def main(argv=None) -> int:
     try:
         args = parse_args(argv)
         if args.resume:
-            config, info, out, resume = _resumed_run(args)
+            config, info, out, resume, fits = _resumed_run(args)
         else:
-            (config, info, out), resume = _new_run(args), None
+            (config, info, out, fits), resume = _new_run(args), None
     except ValueError as error:  # also UsageError, RunDirError and CheckpointError
         return fail(error, 2)
     if args.cache:
@@ -205,7 +223,7 @@ def main(argv=None) -> int:
               else f"{config.run_steps} steps each")
     print(f"{'resuming' if resume else 'preset'} {info['preset']} on {config.env}: {seeds} "
           f"seed(s), {budget}, {config.num_envs} envs, {config.updates_per_step} "
-          f"updates/iteration -> {out}", flush=True)
+          f"updates/iteration; {fits} -> {out}", flush=True)
     tensorboard = run_dir.TensorBoard(out)
 
     def on_point(step, means, eval_returns, elapsed):
@@ -220,7 +238,7 @@ def main(argv=None) -> int:
             result = run_training(
                 config, seeds=seeds, seed=info["seed"], resume=resume, on_point=on_point,
                 on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
-                started=STARTED)
+                started=STARTED, check_memory=False)  # checked above, before the run directory
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)

@@ -40,7 +40,7 @@ def test_an_existing_run_directory_is_not_touched(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--preset", "nope"], "error: --preset='nope': must be one of ['cleanrl', 'v1', 'pendulum', 'fast']"),
+    (["--preset", "nope"], f"error: --preset='nope': must be one of {list(sac_jax.PRESETS)}"),
     (["--variant", "v3"], "error: --variant='v3': must be one of ['v2', 'v1']"),
     (["--num-envs", "two"], "error: --num-envs: invalid literal for int() with base 10: 'two'"),
     (["--tau"], "error: --tau: expected a value"),
