@@ -10,13 +10,13 @@ At every evaluation point the loop evaluates the current actor on `eval_episodes
     replacement     the candidate becomes the kept actor, with c* <- c, only if c > c*
 
 The confirmed score is measured after the choice of candidate, on other episodes, so a lucky
-evaluation (s high by chance) is not what the kept score records: selecting on s and scoring on
-c keeps c* an unbiased estimate of the kept actor's return. A tie keeps the older actor, so a
+evaluation (s high by chance) is never what the kept score records: to replace the kept actor,
+a candidate must do better again on fresh initial states. A tie keeps the older actor, so a
 task whose returns saturate (1000 of 1000 on the inverted pendulum) keeps the first actor that
 reached the top.
 
-`solved`: whether c* has reached the task's solved return. With `SACConfig.stop_when_solved`
-a solved seed stops learning: its learner state and kept actor no longer change
+With `SACConfig.stop_when_solved` a seed whose c* reaches `SACConfig.stop_at` (by default the
+task's solved return) stops learning: its learner state and kept actor no longer change
 (`sac_jax.train`), as Stable-Baselines3's StopTrainingOnRewardThreshold stops a run.
 """
 
