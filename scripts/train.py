@@ -6,14 +6,17 @@
     python scripts/train.py --resume runs/pendulum           # continue a stopped run
     python scripts/train.py --help                           # every SACConfig field is a flag
 
-Prints one progress line per evaluation point (mean over seeds; with several seeds, how many
-have solved so far) and writes the run directory (default runs/<preset>-<env>-<time>):
-config.json, run.json, checkpoint.msgpack (at every evaluation), tensorboard/ (live), and at
-the end metrics.csv, summary.json and curves.png.
+Prints one progress line per evaluation point (means over seeds: the last actor's and the
+delivered actor's returns; how many seeds' delivered policies are solved, and stopped) and
+writes the run directory (default runs/<preset>-<env>-<time>): config.json, run.json,
+checkpoint.msgpack (at every evaluation), tensorboard/ (live), and at the end metrics.csv,
+summary.json and curves.png. What the run delivers is each seed's best confirmed actor
+(`sac_jax.selection`), which `sac_jax.load_policy` and scripts/evaluate.py load.
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
-summary, and exits with 130 or 143; `--resume` continues it to the same result as an
-uninterrupted run. A non-finite parameter stops the run (exit 1) and keeps the last good
-checkpoint. Bad input ends with one line on stderr and exit 2, before anything is written.
+summary, and exits with 130 or 143 (a second one stops at once); `--resume` continues it to the
+same result as an uninterrupted run. A non-finite parameter stops the run (exit 1) and keeps the
+last good checkpoint. Bad input, or a run that cannot fit in memory, ends with one line on
+stderr and exit 2, before anything is written.
 """
 
 from __future__ import annotations
