@@ -167,6 +167,13 @@ def _room_for_copy(tree) -> bool:
     return True
 
 
+def _on_host(tree) -> bool:
+    """Whether every device array of `tree` lives on CPU devices, whose memory is the host's:
+    fetching it there (`jax.device_get`) is a view, not a copy."""
+    return all(device.platform == "cpu" for leaf in jax.tree_util.tree_leaves(tree)
+               if isinstance(leaf, jax.Array) for device in leaf.sharding.device_set)
+
+
 class CheckpointWriter(_BackgroundWrites):
     """`save_checkpoint` off the training's critical path. `save(runner, position)` only queues
     a copy of the state in new device buffers (`jax.device_put(..., may_alias=False)`, which
@@ -177,7 +184,10 @@ class CheckpointWriter(_BackgroundWrites):
     A device without room for the copy (`_room_for_copy`) gets none: `save` then waits for the
     writes under way, whose copies it frees, and fetches the state to host memory in line.
     (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run; copying
-    to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.)"""
+    to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.) A state on the CPU
+    is always fetched in line: there the fetch is a view, and the copy the checkpoint keeps holds
+    the filled replay slots only, where a device copy would hold every slot (`sac_jax.memory`).
+    """
 
     def __init__(self, run_dir: str):
         super().__init__()
@@ -193,7 +203,7 @@ class CheckpointWriter(_BackgroundWrites):
 
     def save(self, runner: RunnerState, position: dict) -> None:
         position = copy.deepcopy(position)
-        if _room_for_copy(runner):
+        if not _on_host(runner) and _room_for_copy(runner):
             state = jax.device_put(runner, may_alias=False)
             write = lambda: save_checkpoint(self._run_dir, state, position)
         else:

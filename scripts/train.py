@@ -72,8 +72,8 @@ class TrainArgs:
     cache_dir: Optional[str] = None
     """Compilation cache directory (default $JAX_COMPILATION_CACHE_DIR or ~/.cache/sac-jax/jax)."""
     memory_check: bool = True
-    """Refuse, before anything is written or compiled, a run whose peak memory (replay and
-    state, twice at a checkpoint: `sac_jax.memory`) exceeds the memory available."""
+    """Refuse, before anything is written or compiled, a run whose peak memory (replay, state
+    and a checkpoint's copy: `sac_jax.memory`) exceeds the memory available."""
     config: Annotated[SACConfig, tyro.conf.OmitArgPrefixes] = PRESETS[DEFAULT_PRESET]
 
     def __post_init__(self):

@@ -25,21 +25,25 @@ def machine_of_24_gb(monkeypatch):
 
 def test_the_replay_need_is_the_slots_data_and_the_rest_is_the_state():
     """InvertedPendulum-v5: a slot holds obs 4, action 1, reward 1, next obs 4, terminated 1
-    float32 = 44 bytes; the state is every other byte of the eval_shape of the initial state."""
-    config = sac_jax.PRESETS["fast"]
-    need = memory.need(config, seeds=3)
+    float32 = 44 bytes; the state is every other byte of the eval_shape of the initial state.
+    A checkpoint copies the whole state on an accelerator, on the CPU the state and the slots a
+    run can fill (here 20,480 of 10^6 per seed)."""
+    config = sac_jax.PRESETS["fast"].replace(buffer_size=1_000_000)
+    need = memory.need(config, seeds=3, platform="gpu")
     assert need.replay == 3 * config.buffer_size * 44
     total = sum(x.size * x.dtype.itemsize for x in jax.tree_util.tree_leaves(
         state_template(config, 3)))
     assert need.replay + need.state == total
-    assert need.peak == memory.COPIES_AT_PEAK * total and need.per_seed == need.peak // 3
+    assert need.peak == 2 * total and need.per_seed == need.peak // 3
+    on_cpu = memory.need(config, seeds=3, platform="cpu")
+    assert on_cpu.checkpoint == on_cpu.state + 3 * config.run_steps * 44
 
 
 def test_a_run_that_cannot_fit_is_refused_in_one_line_and_writes_nothing(
         tmp_path, capsys, monkeypatch, machine_of_24_gb):
     out = str(tmp_path / "huge")
     fails_in_one_line(capsys, train_script.main, HUGE + ["--out", out], 2,
-                      "need 56.5 GB at a checkpoint (replay 28.2 GB + 75.0 MB state, x2), "
+                      "need 56.5 GB (replay 28.2 GB + 75.0 MB state + 28.2 GB at a checkpoint), "
                       "24.0 GB available on cpu: lower --buffer-size or --seeds")
     assert not os.path.exists(out) and os.listdir(tmp_path) == []
     # an explicit override passes the check (stopped here before anything is compiled)
@@ -59,4 +63,5 @@ def test_the_library_entry_point_refuses_it_too(machine_of_24_gb):
 
 def test_the_header_shows_the_need_next_to_what_is_available(machine_of_24_gb):
     assert memory.check(sac_jax.PRESETS["fast"], 1) == (
-        "replay 0.9 MB + 0.2 MB state, x2 at a checkpoint: 2.3 MB of 24.0 GB available on cpu")
+        "replay 0.9 MB + 0.2 MB state + 1.1 MB at a checkpoint = 2.3 MB of 24.0 GB available "
+        "on cpu")

@@ -101,8 +101,10 @@ def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monke
 
 def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
         run, tmp_path, monkeypatch):
-    """While the first write is held up, three more saves return and queue; once it is let go,
-    only the newest of them is written, and its state is the one that was saved."""
+    """On an accelerator (device copies; forced here): while the first write is held up, three
+    more saves return and queue; once it is let go, only the newest of them is written, and its
+    state is the one that was saved."""
+    monkeypatch.setattr(run_dir, "_on_host", lambda tree: False)
     written, started, release = [], threading.Event(), threading.Event()
 
     def slow_save(directory, runner, position):
@@ -123,6 +125,28 @@ def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
     release.set()
     writer.close()
     assert written == [(1, 1), (4, 4)]
+
+
+def test_on_the_cpu_a_save_copies_the_filled_replay_slots_only(run, tmp_path, monkeypatch):
+    """A state in host memory is fetched in line (a view) and the copy the write keeps holds
+    the 40 filled slots of the 4000, not a copy of every slot; the file is the one
+    `save_checkpoint` writes."""
+    kept = []
+    write = run_dir._write_leaves
+    monkeypatch.setattr(run_dir, "_write_leaves", lambda directory, leaves, filled, position: (
+        kept.append((filled, leaves)), write(directory, leaves, filled, position)))
+    _, saved = run
+    writer = run_dir.CheckpointWriter(str(tmp_path))
+    writer.save(saved, {"chunks_done": 3})
+    writer.close()
+    (filled, leaves), = kept
+    assert filled == 40  # replay leaves (seeds, slots, ...): 40 slots kept, none of 4000
+    assert any(leaf.ndim > 1 and leaf.shape[1] == 40 for leaf in leaves)
+    assert not any(leaf.ndim > 1 and leaf.shape[1] == 4000 for leaf in leaves)
+    direct = tmp_path / "direct"
+    os.makedirs(direct)
+    run_dir.save_checkpoint(str(direct), saved, {"chunks_done": 3})
+    assert (tmp_path / run_dir.CHECKPOINT).read_bytes() == (direct / run_dir.CHECKPOINT).read_bytes()
 
 
 def test_background_writer_reraises_a_failed_write(run, tmp_path):
