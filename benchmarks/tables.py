@@ -139,9 +139,20 @@ def brax() -> str:
                    "solved at step", "env steps/s"], rows)
 
 
+def memory() -> str:
+    """Peak memory per replay slot and per seed against their data (CPU)."""
+    data = _load("memory")
+    r, date = data["result"], _date(data)
+    return _table(["quantity", "date", "peak bytes", "data bytes", "ratio"], [
+        ["per replay slot (`fast`, 1 seed)", date, f"{r['bytes_per_slot']:.1f}",
+         r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}"],
+        ["per seed, its buffer included (`fast`)", date, f"{r['bytes_per_seed']:,}",
+         f"{r['seed_data_bytes']:,}", f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}"]])
+
+
 TABLES: Dict[str, Callable[[], str]] = {
     "delivered-cpu": delivered_cpu, "delivered-gpu": delivered_gpu, "presets": presets,
-    "brax": brax}
+    "brax": brax, "memory": memory}
 
 
 def render(text: str) -> str:
