@@ -45,6 +45,9 @@ equivalent (`device_put_replicated` below), for this script only.
     python -m benchmarks.brax_peer --seeds 3              # seeds 0..2, medians
     JAX_PLATFORMS=cpu python -m benchmarks.brax_peer      # CPU on a GPU machine
     python -m benchmarks.brax_peer --quick                # tiny run: checks the script only
+
+The JSON line is also written to benchmarks/results/NAME.json (`--name`, default brax_peer-KIND:
+brax_peer-h100, brax_peer-cpu; command, machine, versions, date).
 """
 
 from __future__ import annotations
@@ -63,6 +66,7 @@ import jax
 import jax.numpy as jnp
 
 import envs
+from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax.presets import PRESETS
 from sac_jax.run import compiled_program, run_training
 
@@ -182,7 +186,10 @@ def main():
                         help="use JAX's persistent compilation cache in this directory")
     parser.add_argument("--quick", action="store_true",
                         help=f"tiny runs {QUICK} to check the script (figures meaningless)")
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default brax_peer-KIND: brax_peer-h100, brax_peer-cpu)")
     args = parser.parse_args()
+    source = provenance()
     if args.seeds < 1:
         parser.error(f"--seeds must be >= 1, got {args.seeds}")
 
@@ -225,14 +232,16 @@ def main():
     medians = {who: {k: median(who, k) for k in keys} for who in ("brax", "ours")}
     import brax
 
-    print(json.dumps(dict(
+    result = dict(
         benchmark="brax_peer", env=config.env, preset=args.preset, quick=args.quick,
         total_steps=config.total_steps, solved_return=threshold, seeds=args.seeds,
         device=str(jax.devices()[0].device_kind), platform=jax.default_backend(),
         machine=platform.machine(), cpus=os.cpu_count(), jax=jax.__version__,
         brax=brax.__version__, median=medians,
         ratio_ours_over_brax={k: ratio(medians["ours"][k], medians["brax"][k]) for k in keys},
-        runs=runs)))
+        runs=runs)
+    print(json.dumps(result))
+    write_result(args.name or result_name("brax_peer"), result, source)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,8 @@ is the ordinary program (`sac_jax.train.make_train_parts`). Each timing is one j
 chunk; no evaluation falls in a timed chunk); figures are medians of `--repeats` chunks.
 Environment steps/s count transitions (num_envs per iteration); updates/s count global
 gradient updates (updates_per_step per iteration, each on the whole batch).
-Prints one JSON line.
+Prints one JSON line and writes it to benchmarks/results/NAME.json (`--name`, default
+data_parallel-NUM_ENVS-KIND: data_parallel-262144-2xh200; command, machine, versions, date).
 
     python -m benchmarks.data_parallel              # 262,144 envs, batch 65,536, 4 updates/iteration
     XLA_FLAGS=--xla_force_host_platform_device_count=2 python -m benchmarks.data_parallel \\
@@ -25,6 +26,7 @@ import time
 
 import jax
 
+from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax import PRESETS, parallel
 from sac_jax.train import TrainParts, make_train_parts
 
@@ -76,13 +78,16 @@ def main(argv=None):
                         help="hidden widths of actor and critics")
     parser.add_argument("--iterations", type=int, default=10, help="iterations per timing")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default data_parallel-NUM_ENVS-KIND)")
     args = parser.parse_args(argv)
+    source = provenance()
     config = benchmark_config(args)
     devices = jax.local_devices()
     one = throughput(make_train_parts(config), config, args.repeats)
     mesh = parallel.make_mesh(parallel.DATA, devices)
     spread = throughput(parallel.make_data_parallel_parts(config, mesh), config, args.repeats)
-    print(json.dumps({
+    result = {
         "benchmark": "data_parallel", "jax": jax.__version__,
         "device_kind": devices[0].device_kind, "devices": len(devices),
         "config": {"env": config.env, "num_envs": config.num_envs,
@@ -90,7 +95,10 @@ def main(argv=None):
                    "hidden": list(config.actor_hidden), "iterations": args.iterations,
                    "repeats": args.repeats},
         "one_device": one, "data_parallel": spread,
-        "speedup": round(spread["env_steps_per_s"] / one["env_steps_per_s"], 3)}))
+        "speedup": round(spread["env_steps_per_s"] / one["env_steps_per_s"], 3)}
+    print(json.dumps(result))
+    write_result(args.name or result_name(f"data_parallel-{args.num_envs}", all_devices=True),
+                 result, source)
 
 
 if __name__ == "__main__":

@@ -13,7 +13,8 @@ summary.json: the seconds from process start and of training until the delivered
 solved (`solved_process_s`, `solved_wall_s`), and its confirmed return; then the delivered
 policy of every seed is evaluated over `--episodes` episodes of Gymnasium's
 InvertedPendulum-v5 (`scripts/evaluate.py`'s `gymnasium_returns`). Writes
-benchmarks/results/delivered.json (command, machine, versions, date, every figure).
+benchmarks/results/delivered.json (delivered-h100.json on an H100, `--name` to choose; command,
+machine, versions, date, every figure).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import time
 
 import numpy as np
 
-from benchmarks.provenance import provenance, write_result
+from benchmarks.provenance import machine_kind, provenance, write_result
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -90,8 +91,8 @@ def main() -> None:
     parser.add_argument("--cold", action="store_true", help="also one run from an empty cache")
     parser.add_argument("--warm-many", action="store_true",
                         help="run the many-seed run twice and report the second (warm cache)")
-    parser.add_argument("--name", default="delivered",
-                        help="results file: benchmarks/results/NAME.json")
+    parser.add_argument("--name", default=None, help="results file: benchmarks/results/NAME.json "
+                        "(default delivered on a CPU, delivered-KIND elsewhere: delivered-h100)")
     parser.add_argument("--judge", choices=("gymnasium", "ours"), default="gymnasium",
                         help="where the many-seed run's delivered policies are evaluated (ours: "
                         "all seeds at once on the device, for hundreds of seeds)")
@@ -143,7 +144,9 @@ def main() -> None:
             "max_solved_process_s": float(np.max(times)),
             "gymnasium_at_least_950": sum(r["gymnasium_return"] >= 950 for r in runs),
             "seeds": len(runs)}
-    write_result(args.name, result, provenance())
+    kind = machine_kind()
+    write_result(args.name or ("delivered" if kind == "cpu" else f"delivered-{kind}"), result,
+                 provenance())
 
 
 if __name__ == "__main__":

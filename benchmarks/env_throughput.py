@@ -4,7 +4,8 @@ MJX: ``jit`` of a ``lax.scan`` over ``--steps`` steps of ``VectorEnv.step`` (vma
 with auto-reset) with uniform random actions, for each ``--sizes`` instance count.  Compile
 time is measured separately (``jit(...).lower(...).compile()``); run time is the median of
 ``--repeats`` calls of the compiled function. ``--lean-stages on|off`` sets the environment's
-`envs.mjx_env.MjxEnv.lean_stages` (default: the platform's choice, lean except on a CPU).
+`envs.mjx_env.MjxEnv.lean_stages` (default: the platform's choice, lean except on a CPU);
+``--lean-stages off on`` measures every size both ways in one call.
 
 Baselines on the same machine:
 * Gymnasium's C-MuJoCo ``InvertedPendulum-v5`` stepped in a Python loop (one instance,
@@ -13,8 +14,9 @@ Baselines on the same machine:
   physics steps count as one environment step.
 
 One environment step = 2 RK4 physics steps of 0.02 s.  Prints one markdown table row per
-measurement.  Example (small, CPU): ``python benchmarks/env_throughput.py --sizes 1024 16384
---steps 100``.
+measurement and writes them all to benchmarks/results/NAME.json (`--name`, default
+env_throughput-KIND: env_throughput-cpu, env_throughput-h100; command, machine, versions, date).
+Example (small, CPU): ``python -m benchmarks.env_throughput --sizes 1024 16384 --steps 100``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import mujoco
 import numpy as np
 
 import envs
+from benchmarks.provenance import provenance, result_name, write_result
 
 ENV = "InvertedPendulum-v5"
 FRAME_SKIP = 2
@@ -115,30 +118,48 @@ def main() -> None:
     parser.add_argument("--rollout-steps", type=int, default=100, help="env steps per instance")
     parser.add_argument("--threads", type=int, default=os.cpu_count())
     parser.add_argument("--skip-baselines", action="store_true")
-    parser.add_argument("--lean-stages", choices=["auto", "on", "off"], default="auto")
+    parser.add_argument("--lean-stages", choices=["auto", "on", "off"], nargs="+",
+                        default=["auto"], help="one or more: every size is measured each way")
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default env_throughput-KIND)")
     args = parser.parse_args()
-    lean = {"auto": None, "on": True, "off": False}[args.lean_stages]
+    source = provenance()
 
     print(f"machine: {platform.node()} {platform.machine()} {os.cpu_count()} CPUs; "
           f"jax {jax.__version__} devices {jax.devices()}; mujoco {mujoco.__version__}\n")
     print("| backend | instances | steps/instance | compile s | run s (median) | env steps/s |")
     print("|---|---:|---:|---:|---:|---:|")
 
-    def row(backend, n, steps, compile_s, run_s):
+    rows = []
+
+    def row(backend, n, steps, compile_s, run_s, lean_stages=None):
         compile_txt = "-" if compile_s is None else f"{compile_s:.1f}"
         rate = n * steps / run_s
-        print(f"| {backend} | {n} | {steps} | {compile_txt} | {run_s:.3f} | {rate:,.0f} |", flush=True)
+        label = backend + (f", lean stages {lean_stages}" if lean_stages else "")
+        print(f"| {label} | {n} | {steps} | {compile_txt} | {run_s:.3f} | {rate:,.0f} |",
+              flush=True)
+        rows.append({"backend": backend, "lean_stages": lean_stages, "instances": n,
+                     "steps": steps,
+                     "compile_s": None if compile_s is None else round(compile_s, 2),
+                     "run_s": round(run_s, 5), "env_steps_per_s": round(rate, 1)})
 
-    for n in args.sizes:
-        row(f"MJX lax.scan ({jax.default_backend()}, lean stages {args.lean_stages})", n,
-            args.steps, *bench_mjx(n, args.steps, args.repeats, lean))
-    if args.skip_baselines:
-        return
-    row("Gymnasium C MuJoCo, Python loop", 1, args.gym_steps, None,
-        bench_gymnasium(args.gym_steps, args.repeats))
-    for n in args.sizes:
-        row(f"mujoco.rollout ({args.threads} threads, no resets)", n, args.rollout_steps, None,
-            bench_rollout(n, args.rollout_steps, args.repeats, args.threads))
+    for lean_stages in args.lean_stages:
+        lean = {"auto": None, "on": True, "off": False}[lean_stages]
+        if lean is None:  # the platform's choice, as the environment makes it
+            lean_stages = "on" if envs.make(ENV)._uses_lean_stages() else "off"
+        for n in args.sizes:
+            row(f"MJX lax.scan ({jax.default_backend()})", n, args.steps,
+                *bench_mjx(n, args.steps, args.repeats, lean), lean_stages=lean_stages)
+    if not args.skip_baselines:
+        row("Gymnasium C MuJoCo, Python loop", 1, args.gym_steps, None,
+            bench_gymnasium(args.gym_steps, args.repeats))
+        for n in args.sizes:
+            row(f"mujoco.rollout ({args.threads} threads, no resets)", n, args.rollout_steps,
+                None, bench_rollout(n, args.rollout_steps, args.repeats, args.threads))
+    default = "on" if envs.make(ENV)._uses_lean_stages() else "off"  # the platform's choice
+    write_result(args.name or result_name("env_throughput"),
+                 {"env": ENV, "repeats": args.repeats, "default_lean_stages": default,
+                  "rows": rows}, source)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """Seconds of one evaluation of many seeds (`jax.vmap(sac_jax.evaluate)`, 5 episodes each).
 
-    python -m benchmarks.evaluation_cost RUN_DIR [--seeds 256] [--repeats 3] [--lean-stages on]
+    python -m benchmarks.evaluation_cost RUN_DIR [--seeds 1 256] [--repeats 3]
+                                         [--lean-stages on off]
 
 RUN_DIR is a finished `scripts/train.py` run whose seed 0 balances InvertedPendulum-v5 (its
 episodes last the full 1,000 steps). Three populations of `--seeds` actors, evaluated in one
@@ -15,7 +16,10 @@ and, for the half-fallen population, the earlier loop that stepped ended episode
 they ended (`run_on_evaluate` below, the "before" of BENCHMARKS.md). Each figure is the median
 of `--repeats` timings after a first, compiling call; each population's mean return and longest
 episode are printed beside it (both loops give the same). `--lean-stages on|off` sets the
-environment's `envs.mjx_env.MjxEnv.lean_stages` (default: the platform's choice).
+environment's `envs.mjx_env.MjxEnv.lean_stages` (default: the platform's choice). Several
+`--seeds` and `--lean-stages` values measure every combination in one call, one JSON line each,
+all written to benchmarks/results/NAME.json (`--name`, default evaluation_cost-KIND:
+evaluation_cost-cpu, evaluation_cost-h100; command, machine, versions, date).
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import sac_jax
+from benchmarks.provenance import provenance, result_name, write_result
 from envs.vector import where_rows
 from sac_jax.evaluation import initial_states
 from sac_jax.train import agent_for
@@ -65,18 +70,10 @@ def timed(fn, args, repeats):
             "longest_episode": int(returns.max()), "mean_return": round(float(returns.mean()), 2)}
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("run_dir")
-    parser.add_argument("--seeds", type=int, default=256)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--lean-stages", choices=["auto", "on", "off"], default="auto")
-    args = parser.parse_args(argv)
-    policy = sac_jax.load_policy(args.run_dir)
+def measure(policy, seeds, repeats, lean_stages):
+    """The four timings (module docstring) of `seeds` actors with `lean_stages` (on, off, auto)."""
     agent, env = agent_for(policy.config)
-    env.lean_stages = {"auto": None, "on": True, "off": False}[args.lean_stages]
-    seeds = args.seeds
+    env.lean_stages = {"auto": None, "on": True, "off": False}[lean_stages]
     trained = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (seeds,) + x.shape),
                                      policy.actor_params)
     untrained = jax.vmap(agent.init)(jax.random.split(jax.random.key(5), seeds)).actor_params
@@ -84,12 +81,35 @@ def main(argv=None):
     keys = jax.random.split(jax.random.key(0), seeds)
     new = jax.jit(jax.vmap(lambda p, k: sac_jax.evaluate(agent, env, p, k, EPISODES)))
     old = jax.jit(jax.vmap(lambda p, k: run_on_evaluate(agent, env, p, k, EPISODES)))
-    results = {name: timed(fn, (params, keys), args.repeats) for name, fn, params in [
+    results = {name: timed(fn, (params, keys), repeats) for name, fn, params in [
         ("trained", new, trained), ("half fallen", new, half),
         ("half fallen, run-on loop", old, half), ("untrained", new, untrained)]}
-    print(json.dumps({"benchmark": "evaluation_cost", "device": jax.devices()[0].device_kind,
-                      "seeds": seeds, "episodes_per_seed": EPISODES,
-                      "lean_stages": args.lean_stages, **results}))
+    return {"seeds": seeds, "episodes_per_seed": EPISODES, "lean_stages": lean_stages,
+            "lean_stages_used": env._uses_lean_stages(), **results}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run_dir")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[256])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--lean-stages", choices=["auto", "on", "off"], nargs="+",
+                        default=["auto"])
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default evaluation_cost-KIND)")
+    args = parser.parse_args(argv)
+    source = provenance()
+    policy = sac_jax.load_policy(args.run_dir)
+    rows = []
+    for seeds in args.seeds:
+        for lean_stages in args.lean_stages:
+            rows.append(measure(policy, seeds, args.repeats, lean_stages))
+            print(json.dumps({"benchmark": "evaluation_cost",
+                              "device": jax.devices()[0].device_kind, **rows[-1]}), flush=True)
+    write_result(args.name or result_name("evaluation_cost"),
+                 {"run_dir": args.run_dir, "preset_env": policy.config.env,
+                  "repeats": args.repeats, "rows": rows}, source)
 
 
 if __name__ == "__main__":

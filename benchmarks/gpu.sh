@@ -6,18 +6,26 @@
 # and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
 # mujoco's viewer wheels (mujoco-studio, pyopengl, glfw) stay out: MJX does not import them,
 # and without their 16 MB our wheels and brax's fit the device tool's 64 MiB carry together (49 MB).
-# Usage: bash benchmarks/gpu.sh env [env_throughput.py flags, e.g. --sizes 8 1280 --lean-stages off]
-#        bash benchmarks/gpu.sh evaluation [evaluation_cost.py flags, e.g. --seeds 1 --lean-stages off]
-#        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype bfloat16]
+# Every results file a mode writes (benchmarks/provenance.py's write_result, NAME-KIND.json, e.g.
+# seed_scaling-h100.json) goes to a fresh folder, is printed, and is copied into $OUT, where the
+# device tool sets it, to come back: put it in benchmarks/results/ and run
+# python -m benchmarks.tables.
+# Usage: bash benchmarks/gpu.sh env [env_throughput.py flags, e.g. --sizes 8 1280
+#          --lean-stages on off]
+#        bash benchmarks/gpu.sh evaluation [evaluation_cost.py flags, e.g. --seeds 1 256
+#          --lean-stages on off]
+#        bash benchmarks/gpu.sh updates [seed_scaling.py flags, e.g. --hidden-dtype float32
+#          bfloat16]
 #        bash benchmarks/gpu.sh profile [profile_chunk.py flags, e.g. --hidden-dtype float32]
-#        bash benchmarks/gpu.sh parallel (several GPUs: one GPU against data parallel over all)
+#        bash benchmarks/gpu.sh parallel [data_parallel.py flags] (several GPUs: one GPU against
+#          data parallel over all; without flags, four sizes, one process each)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
 #        bash benchmarks/gpu.sh presets [presets_delivered.py flags] (4 seeds of each preset,
 #          every delivered policy scored in Gymnasium; the same wheels as delivered)
 #        bash benchmarks/gpu.sh delivered [benchmarks/delivered.py flags, e.g. --cold] (the
 #          README's command, seeds 0, 1, 2 one at a time and 256 seeds in one run, judged on
-#          the device; delivered.json comes back in $OUT). Its wheels (no brax): mujoco,
+#          the device; delivered-KIND.json comes back in $OUT). Its wheels (no brax): mujoco,
 #          mujoco-core, mujoco-mjx, trimesh, flax, optax, distrax, tfp-nightly, dm-tree,
 #          decorator, gast, tyro, docstring-parser, typeguard, tensorboardX, gymnasium,
 #          farama-notifications, and glfw, which Gymnasium's MuJoCo environments import (26 MB).
@@ -25,49 +33,57 @@ set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
 export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
+export SAC_JAX_BENCHMARK_VIA="bash benchmarks/gpu.sh $*"  # recorded beside each file's command
+SAC_JAX_RESULTS_DIR=$(mktemp -d /tmp/results.XXXXXX); export SAC_JAX_RESULTS_DIR
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader
 python3 -c "import jax, mujoco, flax, optax, distrax; print('jax', jax.__version__, jax.devices())"
+rc=0
+run() { "$@" || rc=$?; }  # runs one benchmark; the mode's status is its last failure's
 mode=${1:-}; shift
 case "$mode" in
   env)
-    python3 -m benchmarks.env_throughput --sizes 1024 16384 131072 --steps 200 --repeats 3 \
+    run python3 -m benchmarks.env_throughput --sizes 1024 16384 131072 --steps 200 --repeats 3 \
       --skip-baselines "$@" ;;
   updates)
-    python3 -m benchmarks.seed_scaling --seeds 1 16 256 1024 --updates 200 "$@" ;;
+    run python3 -m benchmarks.seed_scaling --seeds 1 16 256 1024 --updates 200 "$@" ;;
   evaluation)
     rm -rf /tmp/policy-run
     python3 scripts/train.py --seed 0 --cache-dir /tmp/jaxcache --out /tmp/policy-run 2>&1 | tail -1
-    python3 -m benchmarks.evaluation_cost /tmp/policy-run "$@" ;;
+    run python3 -m benchmarks.evaluation_cost /tmp/policy-run "$@" ;;
   profile)
-    python3 -m benchmarks.profile_chunk "$@" ;;
+    run python3 -m benchmarks.profile_chunk "$@" ;;
   parallel)
-    python3 -m benchmarks.data_parallel
-    python3 -m benchmarks.data_parallel --num-envs 65536 --batch-size 16384
-    python3 -m benchmarks.data_parallel --num-envs 524288 --batch-size 131072 --repeats 3 ;;
+    if [ $# -gt 0 ]; then
+      run python3 -m benchmarks.data_parallel "$@"
+    else
+      run python3 -m benchmarks.data_parallel --num-envs 65536 --batch-size 16384
+      run python3 -m benchmarks.data_parallel  # 262,144 environments, batch 65,536
+      run python3 -m benchmarks.data_parallel --num-envs 524288 --batch-size 131072
+      run python3 -m benchmarks.data_parallel --num-envs 1048576 --batch-size 262144 --repeats 3
+    fi ;;
   brax|brax-cpu)
     if ! out=$(python3 -c "import PIL, scipy, brax.training.agents.sac.train" 2>&1); then
       echo "$out" | tail -5; echo "brax does not import"; exit 1
     fi
     if [ "$mode" = brax-cpu ]; then export JAX_PLATFORMS=cpu; fi
-    python3 -m benchmarks.brax_peer "$@" ;;
+    run python3 -m benchmarks.brax_peer "$@" ;;
   torch)
-    python3 -m benchmarks.torch_time_to_solve "$@" ;;
+    run python3 -m benchmarks.torch_time_to_solve "$@" ;;
   delivered)
     python3 -c "import tyro, tensorboardX, gymnasium; from mujoco import mjx
 gymnasium.make('InvertedPendulum-v5').close()" || exit 1
     # delivered.py holds JAX on the GPU (its judging) while it starts each training process:
     # with JAX's default preallocation of 75 % of the memory the next one cannot allocate.
     export XLA_PYTHON_CLIENT_PREALLOCATE=false
-    rm -f benchmarks/results/delivered*.json  # this copy's, from the tree that travelled
-    python3 -m benchmarks.delivered --seeds 0 1 2 --many 256 --judge ours "$@"; rc=$?
-    cat benchmarks/results/delivered*.json
-    if [ -n "${OUT:-}" ]; then cp benchmarks/results/delivered*.json "$OUT/"; fi
-    exit $rc ;;
+    run python3 -m benchmarks.delivered --seeds 0 1 2 --many 256 --judge ours "$@" ;;
   presets)
-    rm -f benchmarks/results/presets_delivered.json
-    python3 -m benchmarks.presets_delivered "$@"; rc=$?
-    if [ -n "${OUT:-}" ]; then cp benchmarks/results/presets_delivered.json "$OUT/"; fi
-    exit $rc ;;
+    run python3 -m benchmarks.presets_delivered "$@" ;;
   *)
     echo "unknown mode $mode"; exit 2 ;;
 esac
+for file in "$SAC_JAX_RESULTS_DIR"/*.json; do
+  [ -e "$file" ] || { echo "no results file written"; break; }
+  echo "== $(basename "$file")"; cat "$file"
+  if [ -n "${OUT:-}" ]; then cp "$file" "$OUT/"; fi
+done
+exit $rc

@@ -6,8 +6,8 @@ pendulum of `v1`), against the task's solved return.
     python -m benchmarks.presets_delivered          # cleanrl, pendulum, v1, double-pendulum
     python -m benchmarks.presets_delivered --runs pendulum --seeds 2
 
-Writes benchmarks/results/presets_delivered.json (command, machine, versions,
-date, every seed's score).
+Writes benchmarks/results/NAME.json (`--name`, default presets_delivered-KIND:
+presets_delivered-h100; command, machine, versions, date, every seed's score).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 
 import envs
 import sac_jax
-from benchmarks.provenance import provenance, write_result
+from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax.run import run_training
 from sac_jax.saved_policy import SavedPolicy
 from sac_jax.train import agent_for
@@ -50,7 +50,10 @@ def main() -> None:
                         default=["cleanrl", "pendulum", "v1", "double-pendulum"])
     parser.add_argument("--seeds", type=int, default=4)
     parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default presets_delivered-KIND: presets_delivered-h100)")
     args = parser.parse_args()
+    source = provenance()
     sac_jax.enable_compilation_cache()
     results = {}
     for name in args.runs:
@@ -73,7 +76,7 @@ def main() -> None:
             "run_steps": config.run_steps, "confirm_episodes": config.confirm_episodes,
             "seconds": round(time.perf_counter() - start, 1)}
         print(json.dumps({name: results[name]}), flush=True)
-    write_result("presets_delivered", results, provenance())
+    write_result(args.name or result_name("presets_delivered"), results, source)
 
 
 if __name__ == "__main__":

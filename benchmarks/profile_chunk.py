@@ -14,6 +14,8 @@ count: the compile and chunk seconds without the profiler, the profiled chunk's 
 evaluation return (InvertedPendulum-v5 scores 1 per step, so about its evaluation's length in
 steps), and per part [kernels, kernel ms]; with `--top N`, each part's N kernels of most time
 (kernel name, launches, ms, the tail of its op_name). Needs a GPU: a CPU trace holds no kernels.
+All lines are written to benchmarks/results/NAME.json (`--name`, default profile_chunk-KIND:
+profile_chunk-h100; command, machine, versions, date).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import time
 import jax
 from jax.profiler import ProfileData
 
+from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax.parallel import seeds_program
 from sac_jax.presets import PRESETS
 from sac_jax.train import SEED_AXES, make_train_parts
@@ -119,9 +122,15 @@ def main(argv=None) -> None:
     parser.add_argument("--chunks", type=int, default=4,
                         help="chunks run before the profiled one (the first is the prefill)")
     parser.add_argument("--top", type=int, default=0, help="kernels listed per part")
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default profile_chunk-KIND)")
     args = parser.parse_args(argv)
+    source = provenance()
+    rows = []
     for seeds in args.seeds:
-        print(json.dumps(profile(seeds, args.hidden_dtype, args.chunks, args.top)), flush=True)
+        rows.append(profile(seeds, args.hidden_dtype, args.chunks, args.top))
+        print(json.dumps(rows[-1]), flush=True)
+    write_result(args.name or result_name("profile_chunk"), {"rows": rows}, source)
 
 
 if __name__ == "__main__":

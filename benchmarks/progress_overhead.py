@@ -19,6 +19,9 @@ about 10% run to run, and the single scan and the chunked runs take different nu
 
     python -m benchmarks.progress_overhead                  # the default preset, 1 seed
     python -m benchmarks.progress_overhead --preset pendulum --seeds 4 --repeats 5
+
+Printed as one JSON line and written to benchmarks/results/NAME.json (`--name`, default
+progress_overhead-PRESET-KIND: progress_overhead-fast-cpu; command, machine, versions, date).
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ import jax
 import numpy as np
 
 import sac_jax
+from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax import run_dir
 from sac_jax.run import run_training
 
@@ -45,7 +49,10 @@ def main():
     parser.add_argument("--preset", default=sac_jax.DEFAULT_PRESET, choices=sorted(sac_jax.PRESETS))
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default progress_overhead-PRESET-KIND)")
     args = parser.parse_args()
+    source = provenance()
     sac_jax.enable_compilation_cache()
     config = sac_jax.PRESETS[args.preset]
     keys = jax.random.split(jax.random.key(0), args.seeds)
@@ -80,18 +87,21 @@ def main():
     def overhead(of, over):
         return round(100 * (statistics.median(a / b for a, b in zip(times[of], times[over])) - 1), 2)
 
-    print(json.dumps({"preset": args.preset, "seeds": args.seeds, "repeats": args.repeats,
-                      **{f"{k}_s": round(statistics.median(v), 3) for k, v in times.items()},
-                      "followed_host_pct": round(100 * statistics.median(host), 2),
-                      "overhead_pct_followed_vs_single_scan": overhead("followed", "single_scan"),
-                      "overhead_pct_followed_vs_chunks": overhead("followed", "chunks"),
-                      "overhead_pct_chunks_vs_single_scan": overhead("chunks", "single_scan"),
-                      **{f"{k}_all_s": [round(x, 3) for x in v] for k, v in times.items()},
-                      "followed_equals_chunks": bool(np.array_equal(returns["followed"],
-                                                                    returns["chunks"])),
-                      **{f"{k}_eval_returns": np.round(v.mean(axis=0), 1).tolist()
-                         for k, v in returns.items()},
-                      "device": str(jax.devices()[0])}))
+    result = {"preset": args.preset, "seeds": args.seeds, "repeats": args.repeats,
+              "total_steps": config.total_steps, "buffer_size": config.buffer_size,
+              **{f"{k}_s": round(statistics.median(v), 3) for k, v in times.items()},
+              "followed_host_pct": round(100 * statistics.median(host), 2),
+              "overhead_pct_followed_vs_single_scan": overhead("followed", "single_scan"),
+              "overhead_pct_followed_vs_chunks": overhead("followed", "chunks"),
+              "overhead_pct_chunks_vs_single_scan": overhead("chunks", "single_scan"),
+              **{f"{k}_all_s": [round(x, 3) for x in v] for k, v in times.items()},
+              "followed_equals_chunks": bool(np.array_equal(returns["followed"],
+                                                            returns["chunks"])),
+              **{f"{k}_eval_returns": np.round(v.mean(axis=0), 1).tolist()
+                 for k, v in returns.items()},
+              "device": str(jax.devices()[0])}
+    print(json.dumps(result))
+    write_result(args.name or result_name(f"progress_overhead-{args.preset}"), result, source)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
 """Where a benchmark figure comes from: every script writes its results with the command that
-produced them, the machine, the package versions and the date, to benchmarks/results/NAME.json."""
+produced them, the machine, the package versions and the date, to benchmarks/results/NAME.json
+(or to $SAC_JAX_RESULTS_DIR/NAME.json where that is set: a trial run, or benchmarks/gpu.sh,
+which copies them into the device tool's $OUT)."""
 
 from __future__ import annotations
 
@@ -8,10 +10,12 @@ import importlib.metadata
 import json
 import os
 import platform
+import re
 import sys
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
-PACKAGES = ("jax", "jaxlib", "flax", "optax", "mujoco", "mujoco-mjx", "brax", "distrax")
+PACKAGES = ("jax", "jaxlib", "flax", "optax", "mujoco", "mujoco-mjx", "brax", "distrax", "torch",
+            "gymnasium")
 
 
 def _cpu_model() -> str:
@@ -23,6 +27,26 @@ def _cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or platform.machine()
+
+
+def machine_kind(all_devices: bool = False) -> str:
+    """A short name of the machine a figure is measured on, for its results file's name: "cpu",
+    or the accelerator's model ("h100" from "NVIDIA H100 80GB HBM3"); with `all_devices`,
+    prefixed by their count where there are several ("2xh200")."""
+    import jax
+
+    devices = jax.devices()
+    if devices[0].platform == "cpu":
+        return "cpu"
+    kind = devices[0].device_kind
+    model = re.search(r"\b([A-Za-z]+\d+)\b", kind)
+    name = (model.group(1) if model else re.sub(r"\W+", "", kind)).lower()
+    return f"{len(devices)}x{name}" if all_devices and len(devices) > 1 else name
+
+
+def result_name(base: str, all_devices: bool = False) -> str:
+    """`base`-KIND (`machine_kind`): "seed_scaling-h100", "update_throughput-cpu"."""
+    return f"{base}-{machine_kind(all_devices)}"
 
 
 def provenance() -> dict:
@@ -38,18 +62,24 @@ def provenance() -> dict:
     module = sys.modules["__main__"].__spec__
     program = (f"python -m {module.name}" if module is not None
                else f"python {os.path.relpath(sys.argv[0])}")
-    return {"command": " ".join([program, *sys.argv[1:]]),
+    source = {"command": " ".join([program, *sys.argv[1:]])}
+    if os.environ.get("SAC_JAX_BENCHMARK_VIA"):  # benchmarks/gpu.sh's own command line
+        source["via"] = os.environ["SAC_JAX_BENCHMARK_VIA"]
+    return {**source,
             "machine": {"cpu": _cpu_model(), "cores": os.cpu_count(),
                         "devices": [str(d) for d in jax.devices()],
+                        "device_kind": jax.devices()[0].device_kind,
                         "xla_flags": os.environ.get("XLA_FLAGS", "")},
             "python": platform.python_version(), "versions": versions,
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
 
 
 def write_result(name: str, result: dict, source: dict) -> str:
-    """Writes {"provenance": source, "result": result} to benchmarks/results/NAME.json."""
-    os.makedirs(RESULTS, exist_ok=True)
-    path = os.path.join(RESULTS, f"{name}.json")
+    """Writes {"provenance": source, "result": result} to benchmarks/results/NAME.json, or to
+    $SAC_JAX_RESULTS_DIR/NAME.json where that is set."""
+    directory = os.environ.get("SAC_JAX_RESULTS_DIR") or RESULTS
+    os.makedirs(directory, exist_ok=True)
+    path = os.path.join(directory, f"{name}.json")
     with open(path, "w") as f:
         json.dump({"provenance": source, "result": result}, f, indent=1)
         f.write("\n")

@@ -2,6 +2,11 @@
 networks and batch unless overridden), each seed sampling its own batches from its own buffer.
 
     python -m benchmarks.seed_scaling --seeds 1 16 256 1024 --updates 200 [--hidden-dtype bfloat16]
+    python -m benchmarks.seed_scaling --seeds 1 256 --hidden-dtype float32 bfloat16   # both
+
+Every seed count is measured with every `--hidden-dtype` given; all rows are written to
+benchmarks/results/NAME.json (`--name`, default seed_scaling-KIND: seed_scaling-cpu,
+seed_scaling-h100; command, machine, versions, date).
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import jax
 import jax.numpy as jnp
 
 import sac_jax
+from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax import replay_buffer as rb
 
 CAPACITY = 20_480
@@ -62,18 +68,31 @@ def main():
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 16, 256, 1024])
     parser.add_argument("--updates", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--hidden-dtype", default="float32", help="SACConfig.hidden_dtype")
+    parser.add_argument("--hidden-dtype", nargs="+", default=["float32"],
+                        help="SACConfig.hidden_dtype: one or more (each seed count with each)")
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default seed_scaling-KIND)")
     args = parser.parse_args()
-    config = sac_jax.PRESETS[args.preset].replace(hidden_dtype=args.hidden_dtype)
+    source = provenance()
+    preset = sac_jax.PRESETS[args.preset]
     print(f"jax {jax.__version__} on {jax.devices()[0].device_kind}; preset {args.preset}: "
-          f"batch {config.batch_size}, actor {config.actor_hidden}, critic {config.critic_hidden}, "
-          f"hidden layers in {config.hidden_dtype}")
-    print("| seeds | updates/s (all seeds) | updates/s per seed | compile + first run s |")
-    print("| ---: | ---: | ---: | ---: |")
+          f"batch {preset.batch_size}, actor {preset.actor_hidden}, critic {preset.critic_hidden}")
+    print("| hidden layers | seeds | updates/s (all seeds) | updates/s per seed | "
+          "compile + first run s |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    rows = []
     for seeds in args.seeds:
-        rate, first = updates_per_s(config, seeds, args.updates, args.repeats)
-        print(f"| {seeds} | {rate:,.0f} | {rate / seeds:,.0f} | {first:.1f} |", flush=True)
-
+        for dtype in args.hidden_dtype:
+            config = preset.replace(hidden_dtype=dtype)
+            rate, first = updates_per_s(config, seeds, args.updates, args.repeats)
+            print(f"| {dtype} | {seeds} | {rate:,.0f} | {rate / seeds:,.0f} | {first:.1f} |",
+                  flush=True)
+            rows.append({"hidden_dtype": dtype, "seeds": seeds, "updates_per_s": round(rate, 1),
+                         "compile_and_first_s": round(first, 2)})
+    write_result(args.name or result_name("seed_scaling"), {
+        "preset": args.preset, "batch_size": preset.batch_size,
+        "actor_hidden": list(preset.actor_hidden), "critic_hidden": list(preset.critic_hidden),
+        "updates": args.updates, "repeats": args.repeats, "rows": rows}, source)
 
 if __name__ == "__main__":
     main()

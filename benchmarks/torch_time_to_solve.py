@@ -23,7 +23,9 @@ environment; the run stops at the first evaluation whose mean return reaches 950
 `--max-steps`. Printed as one JSON line: steps and wall seconds to solve (the loop's wall time
 up to the end of the solving evaluation, evaluations included), environment steps/s (all steps
 / loop wall time, evaluations included, as benchmarks/brax_peer.py counts), updates/s (updates /
-seconds spent in sampling and updating) and the evaluation seconds.
+seconds spent in sampling and updating) and the evaluation seconds, and written to
+benchmarks/results/NAME.json (`--name`, default torch_time_to_solve-KIND:
+torch_time_to_solve-cpu; command, machine, versions, date).
 
     python -m benchmarks.torch_time_to_solve                 # seed 0, all cores
     python -m benchmarks.torch_time_to_solve --seeds 3 --threads 2
@@ -47,6 +49,7 @@ import torch
 
 import envs
 from sac_jax.presets import PRESETS
+from benchmarks.provenance import provenance, result_name, write_result
 from references import cleanrl_sac
 
 ENV = "InvertedPendulum-v5"
@@ -147,6 +150,8 @@ def main():
     parser.add_argument("--eval-episodes", type=int, default=fast.eval_episodes)
     parser.add_argument("--quick", action="store_true",
                         help=f"tiny run {QUICK} to check the script (figures meaningless)")
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default torch_time_to_solve-KIND)")
     args = parser.parse_args()
     for name in ("threads", "seeds", "max_steps", "eval_every", "eval_episodes"):
         if getattr(args, name) < 1:
@@ -176,11 +181,13 @@ def main():
         return None if None in values else statistics.median(values)
 
     keys = ("solved_at_step", "solve_wall_s", "env_steps_per_s", "updates_per_s")
-    print(json.dumps(dict(
+    result = dict(
         benchmark="torch_time_to_solve", env=ENV, quick=args.quick, solved_return=threshold,
         hyperparameters=hp, threads=torch.get_num_threads(), torch=torch.__version__,
         gymnasium=gym.__version__, machine=platform.machine(), cpus=os.cpu_count(),
-        median={k: median(k) for k in keys}, runs=runs)))
+        median={k: median(k) for k in keys}, runs=runs)
+    print(json.dumps(result))
+    write_result(args.name or result_name("torch_time_to_solve"), result, provenance())
 
 
 if __name__ == "__main__":

@@ -17,6 +17,9 @@ round before the median is taken: the load of a shared machine drifts over secon
 timings taken moments apart.
 
     python -m benchmarks.update_throughput --updates 100 --rounds 10
+
+Writes every round and the medians to benchmarks/results/NAME.json (`--name`, default
+update_throughput-KIND: update_throughput-cpu; command, machine, versions, date).
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ import torch
 
 import sac_jax
 from sac_jax import replay_buffer as rb
+from benchmarks.provenance import provenance, result_name, write_result
 from references.cleanrl_sac import CleanRLSAC, make_batch
 
 OBS, ACT, CAPACITY = 4, 1, 100_000
@@ -128,7 +132,10 @@ def main():
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--updates", type=int, default=100, help="updates per timing")
     parser.add_argument("--rounds", type=int, default=10)
+    parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
+                        "(default update_throughput-KIND)")
     args = parser.parse_args()
+    source = provenance()
     config = sac_jax.PRESETS["cleanrl"]
     data = random_data(np.random.default_rng(0))
     flops, ours_run = jax_updates(config, data, args.updates)
@@ -163,6 +170,12 @@ def main():
         print(f"| {label} | {fmt.format(med[name] * scale)} | "
               f"{fmt.format(low[name] * scale)} - {fmt.format(high[name] * scale)} |")
     print(f"FLOPs per update (XLA cost analysis): {flops / 1e6:.0f} M")
+    write_result(args.name or result_name("update_throughput"), {
+        "preset": "cleanrl", "batch_size": config.batch_size,
+        "hidden": list(config.critic_hidden), "policy_frequency": config.policy_frequency,
+        "updates": args.updates, "rounds": args.rounds, "torch_threads": torch.get_num_threads(),
+        "flops_per_update": flops, "median": med, "min": low, "max": high,
+        "all_rounds": rounds}, source)
 
 
 if __name__ == "__main__":
