@@ -4,19 +4,24 @@ and the run that produced it cannot drift apart.
     python -m benchmarks.tables            # rewrites every generated table in BENCHMARKS.md
     python -m benchmarks.tables --check    # exit 1 if BENCHMARKS.md differs from its results
 
+    python -m benchmarks.tables --results DIR --print   # from other results, to stdout
+
 A generated table stands between `<!-- generated: NAME -->` and `<!-- end generated -->` in
-BENCHMARKS.md; `TABLES[NAME]` writes it from the results files it names (each row says which
-file, and the file holds its command, machine, versions and date).
+BENCHMARKS.md; `TABLES[NAME]` writes it from the results files it names (each row or the line
+above the table says which file and its date; the file holds its command, machine, versions
+and date). Where a results file is missing, the table says so and which command writes it.
 """
 
 from __future__ import annotations
 
 import argparse
+import glob
 import json
 import os
 import re
+import statistics
 import sys
-from typing import Callable, Dict, List
+from typing import Callable, Dict, List, Optional
 
 import numpy as np
 
@@ -26,9 +31,53 @@ DOC = os.path.join(ROOT, "BENCHMARKS.md")
 BLOCK = re.compile(r"(<!-- generated: (\S+) -->\n)(.*?)(<!-- end generated -->)", re.S)
 
 
+GPUS = ("h100", "h200")  # the kinds (benchmarks/provenance.py's machine_kind) of one GPU
+
+
 def _load(name: str) -> dict:
     with open(os.path.join(RESULTS, f"{name}.json")) as f:
         return json.load(f)
+
+
+def _find(*names: str) -> Optional[str]:
+    """The first of `names` whose results file exists."""
+    return next((n for n in names if os.path.exists(os.path.join(RESULTS, f"{n}.json"))), None)
+
+
+def _gpu(base: str) -> Optional[str]:
+    """BASE-h100, else BASE-h200, where one exists."""
+    return _find(*(f"{base}-{kind}" for kind in GPUS))
+
+
+def _pending(command: str, where: str = "") -> str:
+    return f"_not measured yet: run `{command}`{where}_\n"
+
+
+def _machine(data: dict) -> str:
+    m = data["provenance"]["machine"]
+    kind = m.get("device_kind") or m.get("gpu")
+    if kind and kind.lower() != "cpu":
+        count = len(m.get("devices", [])) or 1
+        return f"{count}x {kind}" if count > 1 else kind
+    return f"CPU: {m['cpu']}, {m['cores']} cores"
+
+
+def _from(name: str, data: dict) -> str:
+    """The line above a one-file table: its file, date and machine."""
+    return f"From `{name}.json` ({_date(data)}, {_machine(data)}):\n\n"
+
+
+def _sources(sources, header: List[str], rows_of) -> str:
+    """One table of the rows `rows_of(name, data)` of every present file of `sources` ([(name
+    or None, command writing it)]), then a line per missing file naming its command."""
+    rows, pending = [], []
+    for name, command in sources:
+        if name is None:
+            pending.append(_pending(command))
+        else:
+            rows += rows_of(name, _load(name))
+    text = _table(header, rows) if rows else ""
+    return text + ("\n" if text and pending else "") + "\n".join(pending)
 
 
 def _date(data: dict) -> str:
@@ -45,6 +94,10 @@ def _scores(values) -> str:
     if len(set(values)) > 1:
         return f"{min(values):g} to {max(values):g}"
     return f"{values[0]:g}" + (f" for all {len(values)}" if len(values) > 1 else "")
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n:,} {noun}" + ("" if n == 1 else "s")
 
 
 def _table(header: List[str], rows: List[List[str]]) -> str:
@@ -86,7 +139,7 @@ def delivered_cpu() -> str:
 def delivered_gpu() -> str:
     """Seeds 0-2 alone and 256 seeds in one run (H100), scored in our environment."""
     rows = []
-    for name in ("delivered-h100", "delivered-warm-h100"):
+    for name in (_gpu("delivered"), _gpu("delivered-warm")):
         data = _load(name)
         result, date = data["result"], _date(data)
         runs = result["runs"]
@@ -121,7 +174,8 @@ def presets() -> str:
 
 def brax() -> str:
     """Brax's SAC against ours on the same physics (medians over the seeds)."""
-    data = _load("brax_peer-h100")
+    name = _gpu("brax_peer")
+    data = _load(name)
     result, date = data["result"], _date(data)
     rows = []
     for who, label in (("brax", "Brax SAC (first evaluation ≥ 950)"),
@@ -130,29 +184,411 @@ def brax() -> str:
         steps = [r[who]["solved_at_step"] for r in result["runs"]]
         rows.append([label, date, f"{m['compile_s']:.1f}",
                      f"{m['solve_total_s']:.1f} ({m['solve_train_s']:.2f})",
-                     _span(steps), f"{m['env_steps_per_s']:,.0f}"])
+                     _span(steps), f"{m['env_steps_per_s']:,.0f}", f"`{name}.json`"])
     ratio = result["ratio_ours_over_brax"]
     rows.append(["ours / Brax", "", f"{ratio['compile_s']:.2f}",
                  f"{ratio['solve_total_s']:.2f} ({ratio['solve_train_s']:.2f})", "",
-                 f"{ratio['env_steps_per_s']:.2f}"])
+                 f"{ratio['env_steps_per_s']:.2f}", ""])
     return _table(["trainer", "date", "compile s", "time to solved s (training only)",
-                   "solved at step", "env steps/s"], rows)
+                   "solved at step", "env steps/s", "results"], rows)
 
 
 def memory() -> str:
     """Peak memory per replay slot and per seed against their data (CPU)."""
     data = _load("memory")
     r, date = data["result"], _date(data)
-    return _table(["quantity", "date", "peak bytes", "data bytes", "ratio"], [
+    return _table(["quantity", "date", "peak bytes", "data bytes", "ratio", "results"], [
         ["per replay slot (`fast`, 1 seed)", date, f"{r['bytes_per_slot']:.1f}",
-         r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}"],
+         r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}", "`memory.json`"],
         ["per seed, its buffer included (`fast`)", date, f"{r['bytes_per_seed']:,}",
-         f"{r['seed_data_bytes']:,}", f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}"]])
+         f"{r['seed_data_bytes']:,}", f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}",
+         "`memory.json`"]])
+
+
+# The commands that write the results files of the tables below (BENCHMARKS.md's sizes).
+ENV_GPU = "bash benchmarks/gpu.sh env --sizes 8 1280 131072 --steps 1000 --lean-stages on off"
+ENV_CPU = ("python -m benchmarks.env_throughput --sizes 8 1280 --steps 1000 --lean-stages off on "
+           "--gym-steps 5000 --rollout-steps 50")
+EVALUATION_GPU = "bash benchmarks/gpu.sh evaluation --seeds 1 256 --lean-stages on off"
+EVALUATION_CPU = ("python scripts/train.py --seed 0 --out /tmp/policy-run && "
+                  "python -m benchmarks.evaluation_cost /tmp/policy-run --seeds 2")
+UPDATES_CPU = "python -m benchmarks.update_throughput --updates 100 --rounds 10"
+SCALING_GPU = "bash benchmarks/gpu.sh updates --seeds 1 256 --hidden-dtype float32 bfloat16"
+SCALING_CPU = "python -m benchmarks.seed_scaling --seeds 1 2 --hidden-dtype float32 bfloat16"
+PROFILE_GPU = "bash benchmarks/gpu.sh profile"
+TORCH_CPU = "python -m benchmarks.torch_time_to_solve --threads 2"
+PROGRESS_CPU = {"fast": "python -m benchmarks.progress_overhead --repeats 5",
+                "pendulum": "python -m benchmarks.progress_overhead --preset pendulum --repeats 3"}
+PARALLEL_GPUS = "bash benchmarks/gpu.sh parallel"  # on a host of 2 GPUs
+
+
+def _env_rows(name: str, data: dict) -> List[List[str]]:
+    result, date = data["result"], _date(data)
+    rows = []
+    for r in result["rows"]:
+        lean = r["lean_stages"] or "-"
+        if r["lean_stages"] and r["lean_stages"] == result.get("default_lean_stages"):
+            lean += " (default)"
+        compile_s = "-" if r["compile_s"] is None else f"{r['compile_s']:.1f}"
+        rows.append([r["backend"], lean, f"{r['instances']:,}", f"{r['steps']:,}", compile_s,
+                     f"{r['env_steps_per_s']:,.0f}", date, f"`{name}.json`"])
+    return rows
+
+
+ENV_HEADER = ["backend", "lean RK4 stages", "instances", "steps each", "compile s",
+              "env steps/s", "date", "results"]
+
+
+def env_gpu() -> str:
+    """MJX's env steps/s on one GPU, lean RK4 stages on and off."""
+    return _sources([(_gpu("env_throughput"), ENV_GPU)], ENV_HEADER, _env_rows)
+
+
+def env_cpu() -> str:
+    """MJX's env steps/s on the CPU, against C MuJoCo (Gymnasium's loop, mujoco.rollout)."""
+    return _sources([(_find("env_throughput-cpu"), ENV_CPU)], ENV_HEADER, _env_rows)
+
+
+def evaluation() -> str:
+    """Seconds of one evaluation (5 episodes per seed) of three populations, GPU and CPU."""
+    def rows_of(name, data):
+        return [[_machine(data), r["seeds"], r["lean_stages"] + (
+                    "" if r["lean_stages"] != "auto" else
+                    f" ({'on' if r['lean_stages_used'] else 'off'})"),
+                 f"{r['trained']['seconds']:.3f} ({r['trained']['first_call_s']:.1f})",
+                 f"{r['half fallen']['seconds']:.3f}",
+                 f"{r['half fallen, run-on loop']['seconds']:.3f}",
+                 f"{r['untrained']['seconds']:.3f}", _date(data), f"`{name}.json`"]
+                for r in data["result"]["rows"]]
+    return _sources([(_gpu("evaluation_cost"), EVALUATION_GPU),
+                     (_find("evaluation_cost-cpu"), EVALUATION_CPU)],
+                    ["machine", "seeds", "lean RK4 stages", "trained s (first call s)",
+                     "half fallen s", "half fallen, run-on loop s", "untrained s", "date",
+                     "results"], rows_of)
+
+
+UPDATE_FIGURES = [  # key, label, format, scale, target
+    ("ours", "sac_jax `sac_update` (scan), updates/s", "{:.1f}", 1, None),
+    ("theirs", "PyTorch seed-002 loop, updates/s", "{:.1f}", 1, None),
+    ("speedup", "ours / PyTorch, per round", "{:.2f}x", 1, 2.0),
+    ("peak", "JAX 1024^3 matmul, GFLOP/s", "{:.1f}", 1e-9, None),
+    ("layer", "JAX chain at the layer shape, GFLOP/s", "{:.1f}", 1e-9, None),
+    ("of_peak", "ours / 1024^3 roofline, per round", "{:.0%}", 1, 0.70),
+    ("of_layer", "ours / layer-shape rate, per round", "{:.0%}", 1, None)]
+
+
+def updates_cpu() -> str:
+    """`sac_update` against the PyTorch seed-002 update loop and the roofline (CPU)."""
+    name = _find("update_throughput-cpu")
+    if name is None:
+        return _pending(UPDATES_CPU)
+    data = _load(name)
+    r = data["result"]
+    rows = []
+    for key, label, fmt, scale, target in UPDATE_FIGURES:
+        med = r["median"][key]
+        status = "" if target is None else (
+            f"≥ {fmt.format(target)}: " + ("**met**" if med >= target else "not met"))
+        rows.append([label, f"**{fmt.format(med * scale)}**" if target else
+                     fmt.format(med * scale), f"{fmt.format(r['min'][key] * scale)} - "
+                     f"{fmt.format(r['max'][key] * scale)}", status])
+    return _from(name, data) + _table(
+        [f"figure ({r['rounds']} rounds of {r['updates']} updates)", "median",
+         "range over rounds", "target"], rows)
+
+
+def seed_scaling() -> str:
+    """Updates/s of many seeds vmapped, float32 against bfloat16 hidden layers (GPU, CPU)."""
+    def rows_of(name, data):
+        rates = {(r["seeds"], r["hidden_dtype"]): r["updates_per_s"]
+                 for r in data["result"]["rows"]}
+        rows = []
+        for seeds in sorted({s for s, _ in rates}):
+            f32, b16 = rates.get((seeds, "float32")), rates.get((seeds, "bfloat16"))
+            rows.append([_machine(data), f"{seeds:,}",
+                         "-" if f32 is None else f"{f32:,.0f}",
+                         "-" if b16 is None else f"{b16:,.0f}",
+                         "-" if None in (f32, b16) else f"{b16 / f32:.2f}x",
+                         _date(data), f"`{name}.json`"])
+        return rows
+    return _sources([(_gpu("seed_scaling"), SCALING_GPU),
+                     (_find("seed_scaling-cpu"), SCALING_CPU)],
+                    ["machine", "seeds vmapped", "float32, updates/s",
+                     "bfloat16 hidden layers, updates/s", "bfloat16 / float32", "date",
+                     "results"], rows_of)
+
+
+def profile() -> str:
+    """Kernel milliseconds of one training chunk by part of the iteration (GPU)."""
+    def rows_of(name, data):
+        rows = []
+        for r in data["result"]["rows"]:
+            parts = {p: ms for p, (_, ms) in r["kernels_and_ms_by_part"].items()}
+            rest = sum(ms for p, ms in parts.items()
+                       if p not in ("evaluate", "sac_update", "env_step"))
+            rows.append([f"{r['seeds']:,}", r["hidden_dtype"], f"{r['chunk_s'][-1]:.3f}",
+                         *(f"{parts.get(p, 0.0):.1f}" for p in ("evaluate", "sac_update",
+                                                                "env_step")),
+                         f"{rest:.1f}", f"{r['profiled_chunk_max_eval_return']:.0f}",
+                         _date(data), f"`{name}.json`"])
+        return rows
+    return _sources([(_gpu("profile_chunk"), PROFILE_GPU)],
+                    ["seeds", "hidden layers", "chunk s", "evaluate ms", "sac_update ms",
+                     "env_step ms", "other parts ms", "longest evaluation (steps)", "date",
+                     "results"], rows_of)
+
+
+def torch_loop() -> str:
+    """The PyTorch seed-002 loop's time to a first evaluation ≥ 950, beside ours (CPU)."""
+    name = _find("torch_time_to_solve-cpu")
+    if name is None:
+        return _pending(TORCH_CPU)
+    data = _load(name)
+    r, date = data["result"], _date(data)
+    runs = r["runs"]
+    steps = [x["solved_at_step"] for x in runs if x["solved_at_step"] is not None]
+    median = r["median"]
+    rows = [[f"PyTorch seed-002 loop, {_count(r['threads'], 'thread')} "
+             f"({_count(len(runs), 'seed')})",
+             f"{len(steps)}/{len(runs)} solved" + (f", at {_span(steps)}" if steps else ""),
+             "-" if median["solve_wall_s"] is None else f"**{median['solve_wall_s']:.1f}**",
+             f"{median['env_steps_per_s']:,.1f}", f"{median['updates_per_s']:,.1f}", date,
+             f"`{name}.json`"]]
+    for ours, label in (("delivered", "sac-jax `fast`, warm cache"),
+                        ("delivered-cold", "sac-jax `fast`, cold cache")):
+        if _find(ours) is None:
+            continue
+        d = _load(ours)
+        res = d["result"]
+        solved = [x for x in res["runs"] if x["solved_process_s"] is not None]
+        if ours == "delivered" and solved:
+            rows.append([label + ", its delivered policy confirmed",
+                         f"{len(solved)}/{len(res['runs'])} solved, at "
+                         f"{_span([x['solved_at_step'] for x in solved])}",
+                         f"**{statistics.median(x['solved_process_s'] for x in solved):.1f}** "
+                         "(median of the solved)", "-", "-", _date(d), f"`{ours}.json`"])
+        if ours == "delivered-cold" and res.get("cold") and res["cold"]["solved_process_s"]:
+            rows.append([label + ", its delivered policy confirmed", "1/1 solved",
+                         f"**{res['cold']['solved_process_s']:.1f}**", "-", "-", _date(d),
+                         f"`{ours}.json`"])
+    return _table(["trainer", "seeds solved", "s to solved (from process start for ours)",
+                   "env steps/s", "updates/s", "date", "results"], rows)
+
+
+def progress() -> str:
+    """Host time spent following a run: progress, TensorBoard, checkpoints (CPU)."""
+    def rows_of(name, data):
+        r = data["result"]
+        return [[f"`{r['preset']}` ({r.get('total_steps', 0):,} steps, "
+                 f"{r.get('buffer_size', 0):,}-slot buffer), {_count(r['seeds'], 'seed')}, "
+                 f"{_count(r['repeats'], 'repeat')}", f"{r['chunks_s']:.2f}",
+                 f"{r['followed_s']:.2f}",
+                 f"{r['overhead_pct_followed_vs_chunks']:+.1f} %",
+                 f"**{r['followed_host_pct']:.2f} %**" + (" (≤ 5 %: met)" if
+                                                        r["followed_host_pct"] <= 5 else
+                                                        " (≤ 5 %: not met)"),
+                 _date(data), f"`{name}.json`"]]
+    return _sources([(_find(f"progress_overhead-{preset}-cpu"), command)
+                     for preset, command in PROGRESS_CPU.items()],
+                    ["preset", "chunks s", "followed s", "followed / chunks", "host share",
+                     "date", "results"], rows_of)
+
+
+def _parallel_files() -> List[str]:
+    names = [os.path.basename(p)[:-5] for p in glob.glob(os.path.join(RESULTS,
+                                                                      "data_parallel-*.json"))]
+    def key(name):
+        c = _load(name)["result"]["config"]
+        return c["num_envs"], c["repeats"], name
+    return sorted(names, key=key)
+
+
+def parallel() -> str:
+    """One GPU against data parallel over all of one host's GPUs."""
+    names = _parallel_files()
+    if not names:
+        return _pending(PARALLEL_GPUS, " on a host of 2 GPUs")
+    rows = []
+    for name in names:
+        data = _load(name)
+        r = data["result"]
+        c, one, two = r["config"], r["one_device"], r["data_parallel"]
+        rows.append([f"{c['num_envs']:,}", f"{c['batch_size']:,}", c["repeats"],
+                     f"{one['env_steps_per_s']:,.0f} ({one['updates_per_s']:,.0f})",
+                     f"{two['env_steps_per_s']:,.0f} ({two['updates_per_s']:,.0f})",
+                     f"**{r['speedup']:.2f}x**" if r["speedup"] >= 1.8 else
+                     f"{r['speedup']:.2f}x", f"{one['compile_s']:.1f} / {two['compile_s']:.1f}",
+                     f"{r['devices']}x {r['device_kind']}", _date(data), f"`{name}.json`"])
+    return _table(["environments", "batch", "repeats", "one GPU: env steps/s (updates/s)",
+                   "all GPUs, data parallel", "speedup", "compile s (one / all)", "machine",
+                   "date", "results"], rows)
+
+
+def _target_cpu_updates():
+    name = _find("update_throughput-cpu")
+    if name is None:
+        return None
+    r = _load(name)["result"]
+    return [name], [(f"{r['median']['speedup']:.2f}x (median of {r['rounds']} rounds)",
+                     r["median"]["speedup"] >= 2.0),
+                    (f"{r['median']['of_peak']:.0%} ({r['median']['of_layer']:.0%} of the "
+                     "layer shape's rate)", r["median"]["of_peak"] >= 0.70)]
+
+
+def _target_delivered_cpu():
+    if _find("delivered") is None:
+        return None
+    result = _load("delivered")["result"]
+    runs, many = result["runs"], result["many"] or {}
+    good = sum(r["gymnasium_return"] >= 950 for r in runs)
+    times = [r["solved_process_s"] for r in runs]
+    cold_name = _find("delivered-cold", "delivered")
+    cold = _load(cold_name)["result"].get("cold")
+    many_good = sum(x >= 950 for x in many.get("return", []))
+    figure = (f"{good}/{len(runs)} seeds and {many_good}/{many.get('seeds', 0)} of one run "
+              f"≥ 950; warm median {statistics.median(times):.1f} s, slowest "
+              f"{max(times):.1f} s; cold " + (f"{cold['solved_process_s']:.1f} s (`{cold_name}"
+                                              ".json`)" if cold else "not measured"))
+    met = bool(len(runs) >= 10 and good == len(runs) and many and many_good == many["seeds"]
+               and max(times) <= 10 and cold is not None and cold["solved_process_s"] <= 25)
+    return sorted({"delivered", cold_name}), [(figure, met)]
+
+
+def _target_presets():
+    names = [n for n in ("presets_delivered-h100", "presets_delivered-idp-confirm100-h100",
+                         "presets_delivered-h200") if _find(n)]
+    if not names:
+        return None
+    by_env = {}  # the latest result of each task
+    for name in names:
+        data = _load(name)
+        for run, r in data["result"].items():
+            if r["env"] not in by_env or _date(data) >= by_env[r["env"]][0]:
+                by_env[r["env"]] = (_date(data), run, r)
+    parts = [f"`{run}` {r['solved']}/{r['seeds']}" + (
+        f" ({r['confirm_episodes']} confirmation episodes)"
+        if r.get("confirm_episodes", 20) != 20 else "") for _, run, r in by_env.values()]
+    return names, [("; ".join(parts), all(r["solved"] == r["seeds"]
+                                         for _, _, r in by_env.values()))]
+
+
+def _target_delivered_gpu():
+    name = _gpu("delivered-warm")
+    if name is None:
+        return None
+    r = _load(name)["result"]
+    many, runs = r["many"], r["runs"]
+    one = statistics.median(x["solved_process_s"] for x in runs)
+    one_train = statistics.median(x["solved_wall_s"] for x in runs)
+    ratio = many["all_solved_process_s"] / one
+    figure = (f"{many['at_least_950']}/{many['seeds']} ≥ 950; from process start "
+              f"{many['all_solved_process_s']:.1f} s against {one:.1f} s (median of one-seed "
+              f"runs), **{ratio:.1f}x**; in training seconds "
+              f"{many['all_solved_wall_s'] / one_train:.1f}x")
+    return [name], [(figure, many["at_least_950"] >= many["seeds"] - 1 and ratio <= 2)]
+
+
+def _target_brax():
+    names = [n for n in (_gpu("brax_peer"), _find("brax_peer-cpu")) if n]
+    if not names:
+        return None
+    parts, met = [], True
+    for name in names:
+        data = _load(name)
+        ratio = data["result"]["ratio_ours_over_brax"]
+        if None in (ratio["solve_total_s"], ratio["env_steps_per_s"]):  # a trainer unsolved
+            parts.append(f"{_machine(data)}: not both solved")
+            met = False
+            continue
+        parts.append(f"{_machine(data)}: {ratio['solve_total_s']:.2f}x the time, "
+                     f"{ratio['env_steps_per_s']:.2f}x the env steps/s")
+        met = met and ratio["solve_total_s"] < 1 and ratio["env_steps_per_s"] > 1
+    return names, [("; ".join(parts), met)]
+
+
+def _target_env_gpu():
+    name = _gpu("env_throughput")
+    if name is None:
+        return None
+    best = max((r for r in _load(name)["result"]["rows"] if r["backend"].startswith("MJX")),
+               key=lambda r: r["env_steps_per_s"])
+    return [name], [(f"{best['env_steps_per_s']:,.0f} ({best['instances']:,} instances)",
+                     best["env_steps_per_s"] >= 3e6)]
+
+
+def _target_progress():
+    names = [n for n in (_find(f"progress_overhead-{p}-cpu") for p in PROGRESS_CPU) if n]
+    if not names:
+        return None
+    results = [_load(n)["result"] for n in names]
+    missing = [p for p in PROGRESS_CPU if p not in {r["preset"] for r in results}]
+    return names, [(", ".join(f"`{r['preset']}` {r['followed_host_pct']:.2f} %"
+                              for r in results) +
+                    "".join(f", `{p}` not measured yet" for p in missing),
+                    None if missing else all(r["followed_host_pct"] <= 5 for r in results))]
+
+
+def _target_parallel():
+    names = _parallel_files()
+    if not names:
+        return None
+    results = [r for r in (_load(n)["result"] for n in names)
+               if r["devices"] == 2 and r["device_kind"].lower() != "cpu"]
+    names = [n for n in names if _load(n)["result"] in results]
+    if not results:
+        return None
+    large = [r for r in results if r["config"]["num_envs"] >= 262_144]
+    return names, [(", ".join(f"{r['speedup']:.2f}x ({r['config']['num_envs']:,})"
+                              for r in results),
+                    any(r["speedup"] >= 1.8 for r in large))]
+
+
+TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, False or None)])
+    #          or None where nothing is measured, which of those (figure, met) pairs)
+    ("CPU: `sac_update` ≥ 2x the PyTorch seed-002 update loop", "Gradient updates",
+     _target_cpu_updates, 0),
+    ("CPU: ≥ 70 % of the 1024^3 matmul rate", "Gradient updates", _target_cpu_updates, 1),
+    ("CPU: the README's command delivers a policy scoring ≥ 950 in Gymnasium for ≥ 10 seeds "
+     "and all of a `--seeds 32` run; process start to that policy ≤ 10 s warm (slowest seed), "
+     "≤ 25 s cold (`delivered-cold.json`: a quiet machine)", "Delivered policy",
+     _target_delivered_cpu, 0),
+    ("Presets `cleanrl`, `pendulum`, `v1` and InvertedDoublePendulum deliver the solved "
+     "return on 4 of 4 seeds (GPU)", "Delivered policy", _target_presets, 0),
+    ("GPU: 256 seeds in one run, ≥ 255/256 deliver ≥ 950, from process start to all "
+     "delivered ≤ 2x one seed's (warm cache)", "Delivered policy", _target_delivered_gpu, 0),
+    ("Brax's SAC on the same physics: ahead on time to solve and env steps/s",
+     "Brax's SAC on the same physics", _target_brax, 0),
+    ("GPU: ≥ 3M env steps/s", "Environment throughput", _target_env_gpu, 0),
+    ("Following a run (progress, TensorBoard, checkpoints): ≤ 5 % of its time on the host",
+     "Following a run", _target_progress, 0),
+    ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
+     "Several devices", _target_parallel, 0),
+]
+
+
+def targets() -> str:
+    """Each target, its latest figure and whether it is met, computed from the results."""
+    rows = []
+    for target, section, figures, index in TARGETS:
+        found = figures()
+        if found is None:
+            rows.append([target, "_not measured yet_", "-", section, "-"])
+            continue
+        names, results = found
+        figure, met = results[index]
+        dates = sorted({_date(_load(n)) for n in names})
+        status = {True: "**met**", False: "not met", None: "not all measured"}[met]
+        rows.append([target, figure, status, section,
+                     ", ".join(f"`{n}.json`" for n in names) + f" ({', '.join(dates)})"])
+    return _table(["target", "latest figure", "status", "section", "results (date)"], rows)
 
 
 TABLES: Dict[str, Callable[[], str]] = {
-    "delivered-cpu": delivered_cpu, "delivered-gpu": delivered_gpu, "presets": presets,
-    "brax": brax, "memory": memory}
+    "targets": targets, "delivered-cpu": delivered_cpu, "delivered-gpu": delivered_gpu,
+    "presets": presets, "env-gpu": env_gpu, "env-cpu": env_cpu, "evaluation": evaluation,
+    "updates-cpu": updates_cpu, "seed-scaling": seed_scaling, "profile": profile,
+    "brax": brax, "torch": torch_loop, "progress": progress, "parallel": parallel,
+    "memory": memory}
 
 
 def render(text: str) -> str:
@@ -167,13 +603,22 @@ def render(text: str) -> str:
 
 
 def main() -> int:
+    global RESULTS
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true",
                         help="exit 1 if BENCHMARKS.md's generated tables differ from the results")
+    parser.add_argument("--results", default=RESULTS,
+                        help="the folder of results files (default benchmarks/results)")
+    parser.add_argument("--print", action="store_true",
+                        help="print the rendered BENCHMARKS.md instead of writing it")
     args = parser.parse_args()
+    RESULTS = args.results
     with open(DOC) as f:
         text = f.read()
     new = render(text)
+    if args.print:
+        sys.stdout.write(new)
+        return 0
     if args.check:
         if new != text:
             print("BENCHMARKS.md differs from benchmarks/results: run python -m benchmarks.tables",

@@ -9,3 +9,15 @@ def test_generated_tables_match_the_results_files():
         text = f.read()
     assert len(tables.BLOCK.findall(text)) == len(tables.TABLES)
     assert tables.render(text) == text, "run: python -m benchmarks.tables"
+
+
+def test_a_missing_results_file_names_the_command_that_writes_it(monkeypatch, tmp_path):
+    monkeypatch.setattr(tables, "RESULTS", str(tmp_path))
+    for name in ("env-gpu", "env-cpu", "evaluation", "updates-cpu", "seed-scaling", "profile",
+                 "torch", "progress", "parallel"):
+        text = tables.TABLES[name]()
+        assert text.startswith("_not measured yet: run `"), (name, text)
+        assert "|" not in text, name  # no table without figures
+    rows = tables.targets().splitlines()[2:]
+    assert len(rows) == len(tables.TARGETS)
+    assert all("_not measured yet_" in row for row in rows)
