@@ -348,8 +348,9 @@ def torch_loop() -> str:
     runs = r["runs"]
     steps = [x["solved_at_step"] for x in runs if x["solved_at_step"] is not None]
     median = r["median"]
-    rows = [[f"PyTorch seed-002 loop, {_count(r['threads'], 'thread')} "
-             f"({_count(len(runs), 'seed')})",
+    cpu = data["provenance"]["machine"]
+    rows = [[f"PyTorch seed-002 loop, {_count(r['threads'], 'thread')} of {cpu['cpu']} "
+             f"({cpu['cores']} cores), {_count(len(runs), 'seed')}",
              f"{len(steps)}/{len(runs)} solved" + (f", at {_span(steps)}" if steps else ""),
              "-" if median["solve_wall_s"] is None else f"**{median['solve_wall_s']:.1f}**",
              f"{median['env_steps_per_s']:,.1f}", f"{median['updates_per_s']:,.1f}", date,

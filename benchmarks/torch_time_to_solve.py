@@ -24,8 +24,8 @@ environment; the run stops at the first evaluation whose mean return reaches 950
 up to the end of the solving evaluation, evaluations included), environment steps/s (all steps
 / loop wall time, evaluations included, as benchmarks/brax_peer.py counts), updates/s (updates /
 seconds spent in sampling and updating) and the evaluation seconds, and written to
-benchmarks/results/NAME.json (`--name`, default torch_time_to_solve-KIND:
-torch_time_to_solve-cpu; command, machine, versions, date).
+benchmarks/results/NAME.json (`--name`, default torch_time_to_solve-cpu: the loop runs on the
+CPU wherever it runs; command, machine, versions, date).
 
     python -m benchmarks.torch_time_to_solve                 # seed 0, all cores
     python -m benchmarks.torch_time_to_solve --seeds 3 --threads 2
@@ -49,7 +49,7 @@ import torch
 
 import envs
 from sac_jax.presets import PRESETS
-from benchmarks.provenance import provenance, result_name, write_result
+from benchmarks.provenance import provenance, write_result
 from references import cleanrl_sac
 
 ENV = "InvertedPendulum-v5"
@@ -151,7 +151,7 @@ def main():
     parser.add_argument("--quick", action="store_true",
                         help=f"tiny run {QUICK} to check the script (figures meaningless)")
     parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
-                        "(default torch_time_to_solve-KIND)")
+                        "(default torch_time_to_solve-cpu)")
     args = parser.parse_args()
     for name in ("threads", "seeds", "max_steps", "eval_every", "eval_episodes"):
         if getattr(args, name) < 1:
@@ -187,7 +187,7 @@ def main():
         gymnasium=gym.__version__, machine=platform.machine(), cpus=os.cpu_count(),
         median={k: median(k) for k in keys}, runs=runs)
     print(json.dumps(result))
-    write_result(args.name or result_name("torch_time_to_solve"), result, provenance())
+    write_result(args.name or "torch_time_to_solve-cpu", result, provenance())
 
 
 if __name__ == "__main__":
