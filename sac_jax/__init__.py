@@ -8,7 +8,7 @@ Public API: `SACConfig`, `PRESETS`, `make_agent`, `Agent`, `SACState`, the updat
 `load_policy` (a run directory's trained policy as a numpy function).
 """
 
-from sac_jax import losses, replay_buffer
+from sac_jax import hyperparams, losses, replay_buffer
 from sac_jax.agent import Agent, SACState, make_agent
 from sac_jax.compilation_cache import enable_compilation_cache
 from sac_jax.config import SACConfig

@@ -1,12 +1,13 @@
-"""`Agent` (the static parts: config, networks, optimisers, action bounds) and `SACState` (the
-pytree of everything that changes: parameters, target parameters, optimiser states, temperature).
+"""`Agent` (the static parts: config, networks, optimisers, action bounds, and the numeric
+hyperparameters the updates read) and `SACState` (the pytree of everything that changes:
+parameters, target parameters, optimiser states, temperature).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Optional, Tuple
+from typing import Any, Mapping, Optional, Tuple
 
 import flax.struct
 import jax
@@ -15,6 +16,7 @@ import numpy as np
 import optax
 
 from sac_jax.config import SACConfig
+from sac_jax.hyperparams import Hyperparams, of_config
 from sac_jax.networks import Actor, CriticEnsemble, ValueNetwork
 from sac_jax.policy import deterministic_action, squashed_gaussian_sample
 
@@ -23,7 +25,7 @@ class SACState(flax.struct.PyTreeNode):
     """All mutable training state. Unused parts are None (critic targets in v1, value in v2).
 
     `alpha` is the temperature the losses use; it becomes exp(log_alpha) after each temperature
-    step (before the first one it is `config.alpha_init`). `step` counts `sac_update` calls.
+    step (before the first one it is `hyperparams.alpha_init`). `step` counts `sac_update` calls.
     """
 
     actor_params: Any
@@ -48,7 +50,12 @@ def adam(learning_rate: float) -> optax.GradientTransformation:
 @dataclasses.dataclass(frozen=True, eq=False)
 class Agent:
     """Static description of a SAC learner; a pytree with no leaves, so it can be passed to
-    jitted functions as an ordinary argument. Build it with `make_agent`."""
+    jitted functions as an ordinary argument. Build it with `make_agent`.
+
+    The updates read every number that shapes nothing (gamma, tau, learning rates, ...) from
+    `hyperparams`: the config's constants, some of them traced values in an agent that
+    `with_hyperparams` built inside a traced function (do not pass that one into a new
+    `jax.jit`)."""
 
     config: SACConfig
     observation_size: int
@@ -58,6 +65,7 @@ class Agent:
     actor: Actor
     critic: CriticEnsemble
     value: Optional[ValueNetwork]
+    hyperparams: Hyperparams
     actor_optimizer: optax.GradientTransformation
     critic_optimizer: optax.GradientTransformation
     value_optimizer: optax.GradientTransformation
@@ -73,10 +81,14 @@ class Agent:
         """(high + low) / 2, shape (A,)."""
         return (jnp.asarray(self.action_high) + jnp.asarray(self.action_low)) / 2.0
 
-    @property
-    def target_entropy(self) -> float:
-        t = self.config.target_entropy
-        return -float(self.action_size) if t is None else t
+    def with_hyperparams(self, values: Optional[Mapping[str, jax.Array]]) -> "Agent":
+        """This agent with `values` {name: scalar} (traced values of one setting, names from
+        `sac_jax.hyperparams.NAMES`) in place of its own, the optimisers rebuilt for their
+        learning rates; itself for None or {}."""
+        if not values:
+            return self
+        hyperparams = self.hyperparams.replace(**values)
+        return dataclasses.replace(self, hyperparams=hyperparams, **_optimizers(hyperparams))
 
     # ------------------------------------------------------------------ policy
     def sample_action(self, actor_params, obs: jax.Array, noise: jax.Array):
@@ -105,10 +117,7 @@ class Agent:
         critic_params = self.critic.init(k_critic, obs, action)
         v1 = self.config.variant == "v1"
         value_params = self.value.init(k_value, obs) if v1 else None
-        log_alpha_init = self.config.log_alpha_init
-        if log_alpha_init is None:
-            log_alpha_init = math.log(self.config.alpha_init)
-        log_alpha = jnp.float32(log_alpha_init)
+        log_alpha = jnp.asarray(self.hyperparams.log_alpha_init, jnp.float32)
         return SACState(
             actor_params=actor_params,
             critic_params=critic_params,
@@ -120,12 +129,17 @@ class Agent:
             value_opt_state=self.value_optimizer.init(value_params) if v1 else None,
             alpha_opt_state=self.alpha_optimizer.init(log_alpha),
             log_alpha=log_alpha,
-            alpha=jnp.float32(self.config.alpha_init),
+            alpha=jnp.asarray(self.hyperparams.alpha_init, jnp.float32),
             step=jnp.int32(0),
         )
 
 
 jax.tree_util.register_static(Agent)
+
+
+def _optimizers(hyperparams: Hyperparams) -> dict:
+    return {f"{name}_optimizer": adam(getattr(hyperparams, f"{name}_lr"))
+            for name in ("actor", "critic", "value", "alpha")}
 
 
 def make_agent(config: SACConfig, observation_size: int, action_size: int,
@@ -136,6 +150,7 @@ def make_agent(config: SACConfig, observation_size: int, action_size: int,
     if not all(math.isfinite(l) and math.isfinite(h) and l < h for l, h in zip(low, high)):
         raise ValueError(f"action bounds must be finite with low < high, got low={low}, high={high}")
     c = config
+    hyperparams = of_config(c, action_size)
     hidden_dtype = jnp.bfloat16 if c.hidden_dtype == "bfloat16" else None
     return Agent(
         config=c,
@@ -154,8 +169,6 @@ def make_agent(config: SACConfig, observation_size: int, action_size: int,
         value=(ValueNetwork(hidden_sizes=c.critic_hidden, initializer=c.init,
                             last_layer_init=c.last_layer_init, hidden_dtype=hidden_dtype)
                if c.variant == "v1" else None),
-        actor_optimizer=adam(c.actor_lr),
-        critic_optimizer=adam(c.critic_lr),
-        value_optimizer=adam(c.value_lr),
-        alpha_optimizer=adam(c.alpha_lr),
+        hyperparams=hyperparams,
+        **_optimizers(hyperparams),
     )

@@ -128,11 +128,11 @@ def local_config(config: SACConfig, num_devices: int, axis: str = DATA) -> SACCo
     return config.replace(**shares, total_steps=total, data_parallel_axis=axis)
 
 
-DATA_AXES = SEED_AXES.replace(sac=None, delivered=None, stopped=None)
+DATA_AXES = SEED_AXES.replace(sac=None, delivered=None, stopped=None, hyperparams=None)
 """`jax.vmap` axes of a data-parallel run's state over its D device shares: the learner state
 (every update averages over the axis, so all shares hold the same), the delivered actor and the
-stop flag (selected on evaluation returns averaged over the axis) and the counters are held
-once; environments, replay buffer data, keys, sums and outputs have a leading axis D."""
+stop flag (selected on evaluation returns averaged over the axis), the traced hyperparameters
+and the counters are held once; environments, replay buffer data, keys, sums and outputs have a leading axis D."""
 
 
 def _constrain(tree, axes, mesh: Mesh):
@@ -142,7 +142,7 @@ def _constrain(tree, axes, mesh: Mesh):
 
 def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     """`TrainParts` of one run of `config` spread over the mesh's single axis (see the module
-    docstring); `config` holds the global sizes. `init(key)` and `chunk(runner)` map the
+    docstring); `config` holds the global sizes. `init(key, hyperparams=None)` and `chunk(runner)` map the
     one-device program over the D shares with `jax.vmap` (axis named like the mesh's, so the
     updates' `pmean` averages over it) and state the split of the shares over the devices as
     sharding constraints, which XLA's partitioner turns into per-device programs and an
@@ -152,12 +152,13 @@ def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     axis = _axis(mesh)
     parts = make_train_parts(local_config(config, mesh.size, axis))
 
-    def init(key: jax.Array) -> RunnerState:
-        shared = parts.init(key)
+    def init(key: jax.Array, hyperparams=None) -> RunnerState:
+        shared = parts.init(key, hyperparams)
 
         def share(index):
             own_key = jnp.where(index == 0, key, jax.random.fold_in(key, index))
-            return parts.init(own_key).replace(sac=shared.sac, delivered=shared.delivered)
+            return parts.init(own_key, hyperparams).replace(sac=shared.sac,
+                                                            delivered=shared.delivered)
 
         runner = jax.vmap(share, out_axes=DATA_AXES, axis_name=axis)(jnp.arange(mesh.size))
         return _constrain(runner, DATA_AXES, mesh)

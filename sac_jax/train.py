@@ -65,7 +65,8 @@ class RunnerState(flax.struct.PyTreeNode):
     `sums` accumulates the current evaluation period's metrics as (sum, count) pairs;
     `outputs` holds one slot per evaluation point; `delivered` is the kept actor
     (`sac_jax.selection`); `stopped` () bool, whether this seed has stopped learning
-    (`SACConfig.stop_when_solved`)."""
+    (`SACConfig.stop_when_solved`); `hyperparams` {name: scalar}, the hyperparameters this
+    run trains with in place of the config's (`sac_jax.hyperparams`), or None."""
 
     sac: SACState
     env: envs.VectorState
@@ -76,10 +77,11 @@ class RunnerState(flax.struct.PyTreeNode):
     outputs: Dict[str, jax.Array]
     delivered: selection.Delivered
     stopped: jax.Array
+    hyperparams: Optional[Dict[str, jax.Array]] = None
 
 
 class TrainParts(NamedTuple):
-    """`init(key) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations` iterations
+    """`init(key, hyperparams=None) -> RunnerState`; `chunk(runner) -> runner`, `chunk_iterations` iterations
     (evaluating where an evaluation period ends); `num_chunks` chunks make the run;
     `record_draws(key) -> Draws`, the stream of the run from `init(key)` drawn from keys (see
     `record_draws`; None for the data-parallel parts of `sac_jax.parallel`)."""
@@ -138,7 +140,10 @@ def make_train_parts(config: SACConfig,
         after_prefill = iterations_done - prefill
         return (after_prefill > 0) & (after_prefill % period == 0)
 
-    def learn(sac: SACState, buffer: ReplayBuffer, key: jax.Array, iteration: jax.Array):
+    # Every function below takes the run's agent: `agent` itself, or with the runner's traced
+    # hyperparameters (`Agent.with_hyperparams`).
+    def learn(agent: Agent, sac: SACState, buffer: ReplayBuffer, key: jax.Array,
+              iteration: jax.Array):
         # All minibatches of the iteration are gathered at once, then scanned over.
         # randomness: U keys (sac_update draws its noise from each) or U recorded noise dicts
         index, randomness = source.learning(key, buffer.size, iteration)
@@ -151,25 +156,25 @@ def make_train_parts(config: SACConfig,
         return sac, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
                      else nan for name in METRIC_NAMES}
 
-    def mean_return(actor_params, key: jax.Array, episodes: int) -> jax.Array:
+    def mean_return(agent: Agent, actor_params, key: jax.Array, episodes: int) -> jax.Array:
         """Mean deterministic return over `episodes` episodes (over all devices' episodes in a
         data-parallel run, so every device selects alike)."""
         returns = jnp.mean(evaluate(agent, env, actor_params, key, episodes))
         axis = config.data_parallel_axis
         return returns if axis is None else jax.lax.pmean(returns, axis)
 
-    def evaluate_period(runner: RunnerState) -> RunnerState:
+    def evaluate_period(agent: Agent, runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
         key, k_eval = jax.random.split(runner.key)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
         actor = runner.sac.actor_params
         with jax.named_scope("evaluate"):
-            out["eval_return"] = mean_return(actor, k_eval, config.eval_episodes)
+            out["eval_return"] = mean_return(agent, actor, k_eval, config.eval_episodes)
             # the confirmation's episodes: a key no other evaluation draws from
             delivered, out["confirm_return"] = selection.select(
                 runner.delivered, actor, out["eval_return"],
-                lambda: mean_return(actor, jax.random.fold_in(k_eval, 1),
+                lambda: mean_return(agent, actor, jax.random.fold_in(k_eval, 1),
                                     config.confirm_episodes),
                 out["env_steps"])
         stopped = runner.stopped
@@ -185,7 +190,7 @@ def make_train_parts(config: SACConfig,
         return runner.replace(key=key, sums=sums, outputs=outputs, delivered=delivered,
                               stopped=stopped)
 
-    def iteration(runner: RunnerState, _):
+    def iteration(agent: Agent, runner: RunnerState, _):
         learning = runner.iteration >= prefill
         key, k_act, k_random, k_learn = jax.random.split(runner.key, 4)
         random_action, action_noise = source.acting(k_act, k_random, runner.iteration)
@@ -201,7 +206,7 @@ def make_train_parts(config: SACConfig,
                 obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
                 terminated=step.terminated.astype(jnp.float32)))
         sac, metrics = jax.lax.cond(
-            learning, lambda sac: learn(sac, buffer, k_learn, runner.iteration),
+            learning, lambda sac: learn(agent, sac, buffer, k_learn, runner.iteration),
             lambda sac: (sac, {name: nan for name in METRIC_NAMES}), runner.sac)
         if config.stop_when_solved:  # a stopped seed keeps its learner; the update count is shared
             keep = lambda old, new: jnp.where(runner.stopped, old, new)
@@ -217,9 +222,11 @@ def make_train_parts(config: SACConfig,
                               iteration=runner.iteration + 1), None
 
     def chunk(runner: RunnerState) -> RunnerState:
-        runner, _ = jax.lax.scan(iteration, runner, None, length=chunk_iterations)
-        return jax.lax.cond(evaluates_after(runner.iteration), evaluate_period, lambda r: r,
-                            runner)
+        run_agent = agent.with_hyperparams(runner.hyperparams)
+        runner, _ = jax.lax.scan(lambda r, x: iteration(run_agent, r, x), runner, None,
+                                 length=chunk_iterations)
+        return jax.lax.cond(evaluates_after(runner.iteration),
+                            lambda r: evaluate_period(run_agent, r), lambda r: r, runner)
 
     def record_draws(key: jax.Array) -> Draws:
         def one(key, i):
@@ -235,7 +242,7 @@ def make_train_parts(config: SACConfig,
 
         return jax.lax.scan(one, jax.random.split(key, 3)[2], jnp.arange(num_iterations))[1]
 
-    def init(key: jax.Array) -> RunnerState:
+    def init(key: jax.Array, hyperparams: Optional[Dict[str, jax.Array]] = None) -> RunnerState:
         k_sac, k_env, k_run = jax.random.split(key, 3)
         env_state = vec.reset(k_env)
         example = Transition(obs=env_state.env_state.obs[0],
@@ -243,14 +250,15 @@ def make_train_parts(config: SACConfig,
                              reward=jnp.float32(0), next_obs=env_state.env_state.obs[0],
                              terminated=jnp.float32(0))
         zero = jnp.float32(0)
-        sac = agent.init(k_sac)
+        sac = agent.with_hyperparams(hyperparams).init(k_sac)
         return RunnerState(
             sac=sac, env=env_state, buffer=rb.init(config.buffer_size, example),
             key=k_run, iteration=jnp.int32(0), sums={name: (zero, zero) for name in sum_names},
             outputs={"env_steps": jnp.zeros(config.num_evals, jnp.int32),
                      **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
                         for name in sum_names + EVAL_NAMES}},
-            delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False))
+            delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False),
+            hyperparams=hyperparams)
 
     return TrainParts(init, chunk, chunk_iterations, num_iterations // chunk_iterations,
                       record_draws)
@@ -277,7 +285,10 @@ def replay(config: SACConfig, draws: Draws) -> Replay:
 def make_train(config: SACConfig,
                progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None,
                randomness=None):
-    """Returns `train(key) -> (RunnerState, metrics)`, the whole run as one scan.
+    """Returns `train(key, hyperparams=None) -> (RunnerState, metrics)`, the whole run as one
+    scan. `hyperparams`: {name: scalar} values to train with in place of the config's, traced
+    (`sac_jax.hyperparams`; `jax.vmap(train)(keys, hyperparams.stack(configs))` trains many
+    settings in one program).
 
     metrics: arrays with a leading axis of `config.num_evals` evaluation points:
     `env_steps` (environment steps done), `eval_return`, `confirm_return` and
@@ -294,9 +305,9 @@ def make_train(config: SACConfig,
     """
     parts = make_train_parts(config, progress, randomness)
 
-    def train(key: jax.Array):
-        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key), None,
-                              length=parts.num_chunks)[0]
+    def train(key: jax.Array, hyperparams: Optional[Dict[str, jax.Array]] = None):
+        runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key, hyperparams),
+                              None, length=parts.num_chunks)[0]
         return runner, runner.outputs
 
     return train

@@ -68,7 +68,7 @@ def critic_objective(agent: Agent, state: SACState, batch: Transition,
     v2 target: r + gamma (1 - d)(min_j Q-bar_j(s', a') - alpha log pi(a'|s')), a' = f(eps; s'),
     eps (B, A). v1 target: c r + gamma (1 - d) V-bar(s') (the noise is unused).
     """
-    cfg = agent.config
+    cfg, hp = agent.config, agent.hyperparams
     if cfg.variant == "v2":
         noise = as_noise(key_or_noise, batch.action.shape)
         next_action, next_log_prob = agent.sample_action(state.actor_params, batch.next_obs, noise)
@@ -77,11 +77,11 @@ def critic_objective(agent: Agent, state: SACState, batch: Transition,
     else:
         next_value = agent.value.apply(state.value_target_params, batch.next_obs)
     target = jax.lax.stop_gradient(losses.soft_q_target(
-        batch.reward, batch.terminated, next_value, cfg.gamma, cfg.reward_scale))
+        batch.reward, batch.terminated, next_value, hp.gamma, hp.reward_scale))
 
     def objective(params):
         q = agent.critic.apply(params, batch.obs, batch.action)
-        return losses.critic_loss(q, target, cfg.loss_coef), q
+        return losses.critic_loss(q, target, hp.loss_coef), q
 
     return objective
 
@@ -128,7 +128,7 @@ def update_temperature(agent: Agent, state: SACState,
     held constant; afterwards alpha = exp(log alpha)."""
     log_prob = jax.lax.stop_gradient(log_prob)
     objective = lambda log_alpha: (losses.temperature_loss(
-        log_alpha, log_prob, agent.target_entropy, agent.config.alpha_loss), None)
+        log_alpha, log_prob, agent.hyperparams.target_entropy, agent.config.alpha_loss), None)
     log_alpha, opt_state, loss, _, _ = gradient_step(
         agent, agent.alpha_optimizer, objective, state.log_alpha, state.alpha_opt_state)
     alpha = jnp.exp(log_alpha)
@@ -145,7 +145,7 @@ def value_objective(agent: Agent, state: SACState, obs: jax.Array,
     q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
     target = jax.lax.stop_gradient(q_min - state.alpha * log_prob)
     return lambda params: losses.value_loss(agent.value.apply(params, obs), target,
-                                            agent.config.loss_coef)
+                                            agent.hyperparams.loss_coef)
 
 
 def update_value(agent: Agent, state: SACState, obs: jax.Array,
@@ -229,9 +229,9 @@ def sac_update(agent: Agent, state: SACState, batch: Transition,
     def polyak(state):
         if cfg.variant == "v2":
             return state.replace(critic_target_params=polyak_update(
-                state.critic_target_params, state.critic_params, cfg.tau))
+                state.critic_target_params, state.critic_params, agent.hyperparams.tau))
         return state.replace(value_target_params=polyak_update(
-            state.value_target_params, state.value_params, cfg.tau))
+            state.value_target_params, state.value_params, agent.hyperparams.tau))
 
     if cfg.target_update_period == 1:
         state = polyak(state)

@@ -14,4 +14,5 @@ def float64_checks():
     """The float64 comparisons of tests/parallel_checks.py (see its docstring)."""
     from tests.parallel_checks import run_parallel_checks
 
-    return run_parallel_checks("updates", "seeds", "separate", "one_device", x64=True)
+    return run_parallel_checks("updates", "seeds", "separate", "settings", "one_device",
+                               x64=True)

@@ -174,7 +174,7 @@ def jax_probe(agent, state, batch, noise):
                         _, log_prob = agent.sample_action(state.actor_params, batch.obs,
                                                           noise["temperature"][k])
                     loss, grad = jax.value_and_grad(losses.temperature_loss)(
-                        state.log_alpha, log_prob, agent.target_entropy, cfg.alpha_loss)
+                        state.log_alpha, log_prob, agent.hyperparams.target_entropy, cfg.alpha_loss)
                     out["alpha_loss"].append(loss)
                     out["alpha_grad"].append(grad)
                     state, _ = update_temperature(agent, state, log_prob)

@@ -5,7 +5,7 @@ and asserts on the JSON object it prints, one entry per named check:
     XLA_FLAGS=--xla_force_host_platform_device_count=2 JAX_ENABLE_X64=1 \
         python -m tests.parallel_checks updates seeds one_device
 
-The comparisons ("updates", "seeds", "one_device", "separate") compare two compiled programs
+The comparisons ("updates", "seeds", "one_device", "separate", "settings") compare two compiled programs
 that round differently, over up to 768 updates, where training amplifies a rounding difference
 by a factor of 1e4..1e5 (float32: 6e-8 became 1.5e-4..4e-3 relative at the first evaluation,
 depending on the CPU's instruction set). They need JAX_ENABLE_X64=1 and run with the learner
@@ -85,11 +85,11 @@ def to_float64(tree):
 
 
 def float64_train(parts, metrics=lambda outputs: outputs):
-    """`train(key) -> (runner, metrics)` that runs `parts` as `make_train` does (`init`, then
-    `num_chunks` chunks in one scan) with the learner state, and the delivered actor kept from
-    it, cast to float64 after `init`."""
-    def train(key):
-        runner = parts.init(key)
+    """`train(key, hyperparams=None) -> (runner, metrics)` that runs `parts` as `make_train`
+    does (`init`, then `num_chunks` chunks in one scan) with the learner state, and the
+    delivered actor kept from it, cast to float64 after `init`."""
+    def train(key, hyperparams=None):
+        runner = parts.init(key, hyperparams)
         sac = to_float64(runner.sac)
         runner = runner.replace(sac=sac, delivered=selection.init(sac.actor_params))
         runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), runner, None,
@@ -288,6 +288,33 @@ def check_separate() -> dict:
                 {"critic_loss": runs[1][1]["critic_loss"]})}
 
 
+SETTINGS = (SMALL_CONFIG, SMALL_CONFIG.replace(actor_lr=1e-3, critic_lr=1e-3, gamma=0.95))
+"""The swept settings of "settings": the first is SMALL_CONFIG itself."""
+
+
+def check_settings() -> dict:
+    """A sweep of SETTINGS x the 2 seeds of "seeds" in one vmapped float64 `make_train` loop
+    (the settings traced, `sac_jax.hyperparams.stack`) against the four separate runs of each
+    setting's own config on each key (`jax.jit(train)(key)`, its values constants)."""
+    keys = jax.random.split(jax.random.key(3), 2)
+    swept = sac_jax.hyperparams.stack([c for c in SETTINGS for _ in keys])
+    train = float64_train(make_train_parts(SETTINGS[0]))
+    sweep = jax.device_get(jax.jit(jax.vmap(train))(jnp.concatenate([keys, keys]), swept))
+    learner, ulps = [], []
+    for s, config in enumerate(SETTINGS):
+        separate = jax.jit(float64_train(make_train_parts(config)))
+        for k, key in enumerate(keys):
+            run = jax.device_get(separate(key))
+            swept_run = jax.tree_util.tree_map(lambda x: x[2 * s + k], (sweep[0].sac, sweep[1]))
+            learner.append(learner_rel_diff(swept_run[0], run[0].sac))
+            ulps.append(metrics_ulps(swept_run[1], run[1]))
+    return {"swept": sorted(swept), "learner_dtypes": float_dtypes(sweep[0].sac),
+            "learner_rel_diff": learner, "metrics_ulps": ulps,
+            "settings_rel_diff": learner_rel_diff(
+                jax.tree_util.tree_map(lambda x: x[0], sweep[0].sac.actor_params),
+                jax.tree_util.tree_map(lambda x: x[2], sweep[0].sac.actor_params))}
+
+
 def check_one_device() -> dict:
     """The float64 `make_data_parallel_parts` loop on a one-device mesh against the float64
     `make_train` loop, same key; the random-action prefill transitions of the buffer compared
@@ -321,8 +348,8 @@ def check_learning() -> dict:
 
 
 CHECKS = {"updates": check_updates, "seeds": check_seeds, "separate": check_separate,
-          "one_device": check_one_device, "learning": check_learning}
-FLOAT64_CHECKS = ("updates", "seeds", "separate", "one_device")
+          "settings": check_settings, "one_device": check_one_device, "learning": check_learning}
+FLOAT64_CHECKS = ("updates", "seeds", "separate", "settings", "one_device")
 
 
 def main(names):
