@@ -1,6 +1,7 @@
 """What the command-line scripts share: a tyro command line generated from a dataclass, whose bad
 input ends with one line on stderr and no traceback (exit 2); a missing dependency ends the same
-way with exit 1.
+way with exit 1; and what scripts/train.py and scripts/sweep.py both do: presets as the
+defaults of the config flags, the progress line, stopping on a signal, a run's result files.
 
 tyro reports bad input in multi-line panels; `parse` turns each report into one line naming the
 flag and the value. It uses tyro's parse-error hook (`tyro._errors.on_parse_error`), which tyro
@@ -10,13 +11,23 @@ tests/test_cli.py checks every kind of report.
 
 from __future__ import annotations
 
+import math
+import signal
 import sys
-from typing import Optional, Sequence, Type, TypeVar
+from typing import TYPE_CHECKING, Literal, Optional, Sequence, Type, TypeVar
 
 import tyro
 from tyro import _errors
 
+from sac_jax import run_dir
+from sac_jax.presets import DEFAULT_PRESET, PRESETS
+
+if TYPE_CHECKING:
+    from sac_jax.run import RunResult
+
 T = TypeVar("T")
+EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
 
 
 class MissingDependency(Exception):
@@ -67,3 +78,63 @@ def fail(error: Exception, code: int) -> int:
     """Prints `error` as one 'error: ...' line on stderr; returns the exit code `code`."""
     print(f"error: {error}", file=sys.stderr)
     return code
+
+
+def parse_with_preset(cls, argv: Sequence[str], description: str):
+    """The command line as `cls` (a dataclass with `preset` and `config` fields), the SACConfig
+    defaults taken from `--preset` (an unknown preset is reported by the parse). UsageError
+    (one line) for bad input."""
+    preset = DEFAULT_PRESET
+    for i, token in enumerate(argv):
+        name, _, value = token.partition("=")
+        if name == "--preset":
+            value = value or (argv[i + 1] if i + 1 < len(argv) else "")
+            preset = value if value in PRESETS else DEFAULT_PRESET
+    return parse(cls, argv, default=cls(preset=preset, config=PRESETS[preset]),
+                 description=description)
+
+
+def progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
+    """One line per evaluation point (means over seeds): the last actor's evaluation, the
+    delivered (best confirmed) actor's return, training return, temperature, losses, speed; a
+    value not defined at this point (e.g. no training episode ended since the last evaluation,
+    no update after every seed stopped) shows as "-". With a solved threshold it ends with how
+    many seeds' delivered actors are solved, and how many seeds have stopped learning."""
+    def number(name, spec):
+        value = point.get(name, math.nan)
+        return format(value, spec) if math.isfinite(value) else "-".rjust(len(format(0.0, spec)))
+
+    solved = ""
+    if "solved" in point:
+        solved = f" | solved {round(point['solved'] * seeds)}/{seeds}"
+        if point.get("stopped"):
+            solved += f", stopped {round(point['stopped'] * seeds)}"
+    return (f"step {step:>8d} | eval {number('eval_return', '9.1f')} | delivered "
+            f"{number('delivered_return', '9.1f')} | train {number('train_return', '9.1f')} | "
+            f"alpha {number('alpha', '.3f')} | critic {number('critic_loss', '.3g')} | actor "
+            f"{number('actor_loss', '.3g')} | {step * seeds / max(elapsed, 1e-9):8.0f} steps/s "
+            f"| {elapsed:6.1f} s{solved}")
+
+
+class StopRequest:
+    """Signal handler: the first SIGINT/SIGTERM asks the run to stop at the next chunk boundary
+    (after saving); a second one stops at once."""
+
+    def __init__(self):
+        self.signal = None
+
+    def __call__(self, signum, frame):
+        if self.signal is not None:
+            raise KeyboardInterrupt
+        self.signal = signum
+        print(f"{signal.Signals(signum).name}: stopping after the current chunk; saving a "
+              "checkpoint (again to stop at once)", file=sys.stderr, flush=True)
+
+
+def write_results(out: str, config, info: dict, result: RunResult) -> None:
+    run_dir.write_metrics(out, result.metrics, result.points)
+    run_dir.write_summary(out, dict(result.summary, preset=info["preset"]))
+    if result.points:
+        run_dir.write_curves(out, result.metrics, result.points,
+                             f"{config.env}, preset {info['preset']}",
+                             result.summary["solved_threshold"])

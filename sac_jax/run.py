@@ -19,14 +19,14 @@ import dataclasses
 import functools
 import resource
 import time
-from typing import Callable, Dict, Optional
+from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 import envs
-from sac_jax import memory
+from sac_jax import hyperparams, memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import over_seed_axis, seeds_program
@@ -83,10 +83,16 @@ def first_non_finite(flags) -> Optional[str]:
     return None
 
 
+def compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...] = ()):
+    """`_compiled_program` (kept per (config, seeds, swept), however they are passed)."""
+    return _compiled_program(config, seeds, tuple(swept))
+
+
 @functools.lru_cache(maxsize=4)
-def compiled_program(config: SACConfig, seeds: int):
+def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     """(parts, compiled vmapped init, compiled vmapped chunk, compiled `_finite_flags` of the
-    state's `SACState`, the state's sharding) for `seeds` seeds of `config`, the seeds split
+    state's `SACState`, the state's sharding) for `seeds` seeds of `config` (with the
+    hyperparameters `swept` traced, one value per seed: `init(keys, {name: (seeds,)})`), the seeds split
     over the local devices when there are several and they divide `seeds`
     (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later runs
     of the same shapes in this process neither trace nor compile again; other processes find
@@ -94,8 +100,10 @@ def compiled_program(config: SACConfig, seeds: int):
     chunk in `sac_jax.program_cache`."""
     parts = make_train_parts(config)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
+    values = {name: jax.ShapeDtypeStruct((seeds,), jnp.asarray(0.0).dtype) for name in swept}
     options = compiler_options()
-    init = seeds_program(parts.init, seeds, out_axes=SEED_AXES).lower(keys)
+    init = seeds_program(parts.init, seeds, out_axes=SEED_AXES).lower(
+        keys, *([values] if swept else []))
     state = init.out_info
     directory = program_directory()
     # XLA compiles without Python's lock: init and the check compile while the chunk is traced
@@ -116,16 +124,26 @@ def compiled_program(config: SACConfig, seeds: int):
         return parts, init.result(), chunk, finite.result(), sharding
 
 
+compiled_program.cache_clear = _compiled_program.cache_clear
+compiled_program.cache_info = _compiled_program.cache_info
+
+
 def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
+                 settings: Optional[Dict[str, Sequence[float]]] = None,
                  resume: Optional[tuple] = None,
                  on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
                  on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
                  should_stop: Optional[Callable[[], bool]] = None,
-                 started: Optional[float] = None, check_memory: bool = True) -> RunResult:
+                 started: Optional[float] = None, check_memory: bool = True,
+                 stop_on_non_finite: bool = True) -> RunResult:
     """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split over the
     local devices when they divide `seeds`) driven one chunk at a time. With
     `config.stop_when_solved` the run ends as FINISHED once every seed has stopped.
 
+    settings: {name: [value per setting]} of hyperparameters (`sac_jax.hyperparams.NAMES`) to
+        sweep: each setting (`sac_jax.hyperparams.sweep`) trains the same `seeds` keys, all S x seeds
+        runs in the one program, setting-major (run r = setting r // seeds, key r % seeds);
+        every per-seed figure of the result then has S x seeds entries.
     resume: `(state, position)` read from a checkpoint; the run continues from there.
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
         metrics averaged over seeds and each seed's evaluation return; for a task with a solved
@@ -139,21 +157,31 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     check_memory: refuse (`sac_jax.memory.MemoryRefused`, before anything is compiled) a run
         whose peak memory exceeds what is available (`sac_jax.memory.check`).
     A parameter, optimiser state or temperature that becomes non-finite ends the run as
-    NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good.
+    NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good;
+    unless not `stop_on_non_finite` (a sweep, where one setting may diverge): then the others
+    train on, and the summary's `non_finite_at_step` says where each seed's state became
+    non-finite (its delivered actor stays the last one confirmed before).
     """
     threshold = envs.spec(config.env).solved_return
+    configs, values = hyperparams.sweep(config, settings, seeds)
+    config, seed_keys, seeds = configs[0], seeds, seeds * len(configs)
     if check_memory:
         memory.check(config, seeds)
     t0 = time.perf_counter()
-    parts, init, chunk, finite, sharding = compiled_program(config, seeds)
+    parts, init, chunk, finite, sharding = compiled_program(config, seeds, tuple(values))
     if resume is None:
-        runner = init(jax.random.split(jax.random.key(seed), seeds))
+        keys = jax.random.split(jax.random.key(seed), seed_keys)
+        if len(configs) > 1:  # every setting trains the same keys
+            keys = jnp.concatenate([keys] * len(configs))
+        runner = init(keys, *([values] if values else []))
         position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
-                    "startup_s": t0 - (t0 if started is None else started), "walls": {}}
+                    "startup_s": t0 - (t0 if started is None else started), "walls": {},
+                    "non_finite": {}}
     else:
         runner, position = resume
         runner = jax.device_put(runner, sharding)
-        position = dict(position, walls=dict(position["walls"]))
+        position = dict(position, walls=dict(position["walls"]),
+                        non_finite=dict(position.get("non_finite", {})))
     position["compile_s"] += time.perf_counter() - t0
     start = time.perf_counter() - position["run_s"]
     status, message = FINISHED, ""
@@ -172,11 +200,16 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         new_points = points_done(runner)
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position["run_s"] = host_start - start
-        bad = first_non_finite(finite(runner.sac))
+        flags = finite(runner.sac)
+        bad = first_non_finite(flags)
         if bad is not None:
             steps = int(runner.iteration) * config.num_envs
-            status, message = NON_FINITE, f"non-finite {bad} at environment step {steps}"
-            break
+            if stop_on_non_finite:
+                status, message = NON_FINITE, f"non-finite {bad} at environment step {steps}"
+                break
+            finite_runs = np.all(jax.tree_util.tree_leaves(jax.device_get(flags)), axis=0)
+            for run in np.flatnonzero(~finite_runs):
+                position["non_finite"].setdefault(str(run), steps)
         reached = new_points > points
         if reached:
             points = new_points
@@ -210,7 +243,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     summary = dict(run_summary(config, metrics, points, position,
                                jax.device_get(runner.delivered.env_steps),
                                jax.device_get(runner.stopped)),
-                   seeds=seeds, status=status, message=message)
+                   seeds=seeds, status=status, message=message,
+                   non_finite_at_step=[position["non_finite"].get(str(r)) for r in range(seeds)])
     return RunResult(runner, metrics, points, status, message, position, summary)
 
 

@@ -33,7 +33,7 @@ from typing import Callable, Dict, Optional, Tuple
 import jax
 import numpy as np
 
-from sac_jax import checkpoint
+from sac_jax import checkpoint, hyperparams
 from sac_jax.config import SACConfig
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 
@@ -44,7 +44,8 @@ class RunDirError(ValueError):
     """A run directory that cannot be created or read back."""
 
 
-def _write(path: str, data: bytes) -> None:
+def write_file(path: str, data: bytes) -> None:
+    """Writes `data` to `path` under a temporary name, then renames it: whole or absent."""
     tmp = f"{path}.tmp-{os.getpid()}"
     with open(tmp, "wb") as f:
         f.write(data)
@@ -52,28 +53,40 @@ def _write(path: str, data: bytes) -> None:
 
 
 def _write_json(path: str, obj) -> None:
-    _write(path, (json.dumps(obj, indent=2) + "\n").encode())
+    write_file(path, (json.dumps(obj, indent=2) + "\n").encode())
 
 
-def create(out: str, config: SACConfig, preset: str, seeds: int, seed: int) -> None:
-    """Creates the run directory `out` holding config.json and run.json. Raises `RunDirError`
-    if `out` exists (nothing in it is touched)."""
+def create_directory(out: str, files: Dict[str, object]) -> None:
+    """Creates the directory `out` holding the JSON `files` {name: object}: made under a
+    temporary name and renamed, so it is whole or absent. Raises `RunDirError` if `out`
+    exists (nothing in it is touched)."""
     if os.path.exists(out):
-        raise RunDirError(f"--out={out}: already exists; choose a new run directory")
+        raise RunDirError(f"--out={out}: already exists; choose a new directory")
     parent = os.path.dirname(os.path.abspath(out))
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=".tmp-run-", dir=parent)
     try:
-        _write_json(os.path.join(tmp, "config.json"), dataclasses.asdict(config))
-        _write_json(os.path.join(tmp, "run.json"), {"preset": preset, "seeds": seeds, "seed": seed})
+        for name, obj in files.items():
+            _write_json(os.path.join(tmp, name), obj)
         os.rename(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
 
 
+def create(out: str, config: SACConfig, preset: str, seeds: int, seed: int,
+           settings: Optional[Dict[str, list]] = None) -> None:
+    """Creates the run directory `out` holding config.json and run.json (with the swept
+    `settings` of `sac_jax.run.run_training`, if any). Raises `RunDirError` if `out` exists
+    (nothing in it is touched)."""
+    info = {"preset": preset, "seeds": seeds, "seed": seed}
+    create_directory(out, {"config.json": dataclasses.asdict(config),
+                           "run.json": dict(info, settings=settings) if settings else info})
+
+
 def read_config(run_dir: str) -> Tuple[SACConfig, dict]:
-    """(config, run info) of an existing run directory; `RunDirError` if either is unreadable."""
+    """(config, run info: preset, seeds, seed, settings (None if not swept), runs (seeds x
+    settings)) of an existing run directory; `RunDirError` if either is unreadable."""
     if not os.path.isdir(run_dir):
         raise RunDirError(f"{run_dir}: no such run directory")
     try:
@@ -81,16 +94,23 @@ def read_config(run_dir: str) -> Tuple[SACConfig, dict]:
             config = SACConfig(**json.load(f))
         with open(os.path.join(run_dir, "run.json")) as f:
             info = json.load(f)
+        settings = info.get("settings")
+        configs, _ = hyperparams.sweep(config, settings, 1)  # validates them
         return config, {"preset": str(info["preset"]), "seeds": int(info["seeds"]),
-                        "seed": int(info["seed"])}
+                        "seed": int(info["seed"]), "settings": settings,
+                        "runs": int(info["seeds"]) * len(configs)}
     except (OSError, ValueError, TypeError, KeyError) as error:
         raise RunDirError(f"{run_dir}: not a readable run directory ({error})") from None
 
 
-def state_template(config: SACConfig, seeds: int) -> RunnerState:
-    """Shapes and dtypes of the vmapped training state of `seeds` seeds (nothing is computed)."""
-    init = jax.vmap(make_train_parts(config).init, out_axes=SEED_AXES)
-    return jax.eval_shape(init, jax.random.split(jax.random.key(0), seeds))
+def state_template(config: SACConfig, seeds: int, settings: Optional[Dict[str, list]] = None
+                   ) -> RunnerState:
+    """Shapes and dtypes of the vmapped training state of `seeds` seeds (of each of the swept
+    `settings`' values, if any; nothing is computed)."""
+    configs, values = hyperparams.sweep(config, settings, seeds)
+    init = jax.vmap(make_train_parts(configs[0]).init, out_axes=SEED_AXES)
+    keys = jax.random.split(jax.random.key(0), seeds * len(configs))
+    return jax.eval_shape(init, keys, *([values] if values else []))
 
 
 def _buffer_filled_to(runner: RunnerState, filled: int) -> RunnerState:
@@ -222,7 +242,7 @@ def load_checkpoint(run_dir: str, earlier: bool = False
     checkpoint of an earlier sac-jax (format 2, which kept no delivered actor) is refused,
     unless `earlier`: then its state comes with `delivered` and `stopped` None."""
     config, info = read_config(run_dir)
-    template = state_template(config, info["seeds"])
+    template = state_template(config, info["seeds"], info["settings"])
     capacity = config.buffer_size
     path = os.path.join(run_dir, CHECKPOINT)
 
@@ -255,7 +275,7 @@ def write_metrics(run_dir: str, metrics: Dict[str, np.ndarray], points: int) -> 
     for s in range(metrics["eval_return"].shape[0]):
         for p in range(points):
             writer.writerow([s] + [metrics[k][s, p].item() for k in names])
-    _write(os.path.join(run_dir, "metrics.csv"), text.getvalue().encode())
+    write_file(os.path.join(run_dir, "metrics.csv"), text.getvalue().encode())
 
 
 def write_summary(run_dir: str, summary: dict) -> None:
@@ -287,7 +307,7 @@ def write_curves(run_dir: str, metrics: Dict[str, np.ndarray], points: int, titl
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", bbox_inches="tight")
     plt.close(fig)
-    _write(os.path.join(run_dir, "curves.png"), buffer.getvalue())
+    write_file(os.path.join(run_dir, "curves.png"), buffer.getvalue())
 
 
 def _summary_writer_class():

@@ -18,7 +18,7 @@ from typing import Any, Literal
 import jax
 import numpy as np
 
-from sac_jax import run_dir
+from sac_jax import hyperparams, run_dir
 from sac_jax.agent import Agent
 from sac_jax.config import SACConfig
 from sac_jax.train import agent_for
@@ -58,7 +58,8 @@ class SavedPolicy:
 
 def load_policy(path: str, seed: int = 0, which: Literal["best", "last"] = "best"
                 ) -> SavedPolicy:
-    """The deterministic policy of seed `seed` (0..seeds-1) of the run directory `path`:
+    """The deterministic policy of seed `seed` (0..seeds-1; in a sweep's run directory, run
+    `seed` of the settings x seeds, setting-major) of the run directory `path`:
     `which="best"` the delivered actor (best confirmed evaluation), `"last"` the last update's.
 
     Reads config.json, run.json and checkpoint.msgpack; nothing is compiled but the policy
@@ -71,15 +72,17 @@ def load_policy(path: str, seed: int = 0, which: Literal["best", "last"] = "best
     if which not in ("best", "last"):
         raise ValueError(f"which={which!r}: must be 'best' or 'last'")
     config, info = run_dir.read_config(path)
-    seeds = info["seeds"]
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < seeds:
-        raise ValueError(f"seed={seed!r}: run {path} has seeds 0..{seeds - 1}")
+    runs = info["runs"]  # seeds, times the settings of a sweep (`run_dir.read_config`)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < runs:
+        raise ValueError(f"seed={seed!r}: run {path} has seeds 0..{runs - 1}")
     _, _, runner, _ = run_dir.load_checkpoint(path, earlier=True)
     if runner.delivered is None and which == "best":
         warnings.warn(f"{path} was written by an earlier sac-jax, which kept no delivered "
                       "policy: loading its last policy", stacklevel=2)
         which = "last"
     params = runner.delivered.actor_params if which == "best" else runner.sac.actor_params
+    # a sweep's run: its setting's config (`sac_jax.hyperparams.sweep`, setting-major)
+    config = hyperparams.sweep(config, info["settings"], 1)[0][int(seed) // info["seeds"]]
     agent, _ = agent_for(config)
     params = jax.device_put(jax.tree_util.tree_map(lambda x: x[int(seed)], params))
     return SavedPolicy(config, info, int(seed), agent, params, which)

@@ -26,11 +26,10 @@ import time
 STARTED = time.perf_counter()  # process start, for the times to a solved policy
 
 import dataclasses  # noqa: E402
-import math  # noqa: E402
 import os  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
-from typing import Annotated, Literal, Optional, Sequence  # noqa: E402
+from typing import Annotated, Optional, Sequence  # noqa: E402
 
 import tyro  # noqa: E402
 
@@ -39,11 +38,10 @@ import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import memory, run_dir  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, RunResult, run_training  # noqa: E402
-from sac_jax.cli import fail, parse  # noqa: E402
+from sac_jax.run import FINISHED, INTERRUPTED, run_training  # noqa: E402
+from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest, fail, parse_with_preset,  # noqa: E402
+                         progress_line, write_results)
 
-EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
-PresetName = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
 RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
                 "--no-memory-check")
 """The flags a resumed run accepts; it keeps its own configuration."""
@@ -82,17 +80,10 @@ class TrainArgs:
 
 
 def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
-    """The command line as `TrainArgs`, the SACConfig defaults taken from `--preset` (an unknown
-    preset is reported by the parse). UsageError (one line) for bad input."""
+    """The command line as `TrainArgs` (`parse_with_preset`); a resumed run takes no run or
+    config flags."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    preset = DEFAULT_PRESET
-    for i, token in enumerate(argv):
-        name, _, value = token.partition("=")
-        if name == "--preset":
-            value = value or (argv[i + 1] if i + 1 < len(argv) else "")
-            preset = value if value in PRESETS else DEFAULT_PRESET
-    args = parse(TrainArgs, argv, default=TrainArgs(preset=preset, config=PRESETS[preset]),
-                 description=__doc__)
+    args = parse_with_preset(TrainArgs, argv, __doc__)
     if args.resume is not None:
         given = [t.partition("=")[0] for t in argv if t.startswith("--")]
         other = [flag for flag in given if flag not in RESUME_FLAGS]
@@ -100,28 +91,6 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
             raise ValueError(f"--resume={args.resume}: a resumed run keeps its own "
                              f"configuration; remove {other[0]}")
     return args
-
-
-def _progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
-    """One line per evaluation point (means over seeds): the last actor's evaluation, the
-    delivered (best confirmed) actor's return, training return, temperature, losses, speed; a
-    value not defined at this point (e.g. no training episode ended since the last evaluation,
-    no update after every seed stopped) shows as "-". With a solved threshold it ends with how
-    many seeds' delivered actors are solved, and how many seeds have stopped learning."""
-    def number(name, spec):
-        value = point.get(name, math.nan)
-        return format(value, spec) if math.isfinite(value) else "-".rjust(len(format(0.0, spec)))
-
-    solved = ""
-    if "solved" in point:
-        solved = f" | solved {round(point['solved'] * seeds)}/{seeds}"
-        if point.get("stopped"):
-            solved += f", stopped {round(point['stopped'] * seeds)}"
-    return (f"step {step:>8d} | eval {number('eval_return', '9.1f')} | delivered "
-            f"{number('delivered_return', '9.1f')} | train {number('train_return', '9.1f')} | "
-            f"alpha {number('alpha', '.3f')} | critic {number('critic_loss', '.3g')} | actor "
-            f"{number('actor_loss', '.3g')} | {step * seeds / max(elapsed, 1e-9):8.0f} steps/s "
-            f"| {elapsed:6.1f} s{solved}")
 
 
 def _new_run(args: TrainArgs):
@@ -149,28 +118,13 @@ def _resumed_run(args: TrainArgs):
     """(config, run info, run directory, (state, position), memory line) of the run in
     `--resume`."""
     config, info = run_dir.read_config(args.resume)
-    fits = _memory_line(args, config, info["seeds"])
+    fits = _memory_line(args, config, info["runs"])
     config, info, state, position = run_dir.load_checkpoint(args.resume)
     from sac_jax.train import make_train_parts
     if position["chunks_done"] >= make_train_parts(config).num_chunks or (
             config.stop_when_solved and all(state.stopped)):
         raise ValueError(f"--resume={args.resume}: this run already finished")
     return config, info, args.resume, (state, position), fits
-
-
-class _StopRequest:
-    """Signal handler: the first SIGINT/SIGTERM asks the run to stop at the next chunk boundary
-    (after saving); a second one stops at once."""
-
-    def __init__(self):
-        self.signal = None
-
-    def __call__(self, signum, frame):
-        if self.signal is not None:
-            raise KeyboardInterrupt
-        self.signal = signum
-        print(f"{signal.Signals(signum).name}: stopping after the current chunk; saving a "
-              "checkpoint (again to stop at once)", file=sys.stderr, flush=True)
 
 
 def _outcome(summary: dict) -> str:
@@ -200,15 +154,6 @@ def _outcome(summary: dict) -> str:
     return text
 
 
-def _write_results(out: str, config, info: dict, result: RunResult) -> None:
-    run_dir.write_metrics(out, result.metrics, result.points)
-    run_dir.write_summary(out, dict(result.summary, preset=info["preset"]))
-    if result.points:
-        run_dir.write_curves(out, result.metrics, result.points,
-                             f"{config.env}, preset {info['preset']}",
-                             result.summary["solved_threshold"])
-
-
 def main(argv=None) -> int:
     try:
         args = parse_args(argv)
@@ -230,16 +175,17 @@ def main(argv=None) -> int:
     tensorboard = run_dir.TensorBoard(out)
 
     def on_point(step, means, eval_returns, elapsed):
-        print(_progress_line(step, means, seeds, elapsed), flush=True)
+        print(progress_line(step, means, info.get("runs", seeds), elapsed), flush=True)
         tensorboard.add_point(step, means, eval_returns)
 
-    stop = _StopRequest()
+    stop = StopRequest()
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
     checkpoints = run_dir.CheckpointWriter(out)
     try:
         try:
             result = run_training(
-                config, seeds=seeds, seed=info["seed"], resume=resume, on_point=on_point,
+                config, seeds=seeds, seed=info["seed"], settings=info.get("settings"),
+                resume=resume, on_point=on_point,
                 on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
                 started=STARTED, check_memory=False)  # checked above, before the run directory
         finally:
@@ -254,7 +200,7 @@ def main(argv=None) -> int:
                 else "no checkpoint was written")
         print(f"error: {name} again: stopped at once; {kept}", file=sys.stderr, flush=True)
         return EXIT_CODES.get(stop.signal, 130)
-    _write_results(out, config, info, result)
+    write_results(out, config, info, result)
     s = result.summary
     if result.status == FINISHED:
         print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; {_outcome(s)}; wrote "

@@ -84,7 +84,7 @@ def test_flags_override_the_chosen_preset():
 def test_progress_line_shows_undefined_values_as_a_dash():
     point = {"eval_return": 1000.0, "train_return": math.nan, "alpha": 0.0161,
              "critic_loss": 2.73, "actor_loss": -41.6}
-    line = train_script._progress_line(20480, point, 1, 26.0)
+    line = train_script.progress_line(20480, point, 1, 26.0)
     assert "eval    1000.0" in line and "train         -" in line and "alpha 0.016" in line
 
 
@@ -92,15 +92,15 @@ def test_progress_line_counts_the_seeds_solved_and_stopped():
     point = {"eval_return": 980.0, "delivered_return": 990.0, "train_return": 900.0,
              "alpha": 0.02, "critic_loss": 2.0, "actor_loss": -40.0, "solved": 0.75,
              "stopped": 0.0}
-    line = train_script._progress_line(7168, point, 256, 4.3)
+    line = train_script.progress_line(7168, point, 256, 4.3)
     assert line.endswith(" s | solved 192/256") and "delivered     990.0" in line
     point.update(stopped=0.5)
-    assert train_script._progress_line(7168, point, 256, 4.3).endswith(
+    assert train_script.progress_line(7168, point, 256, 4.3).endswith(
         " s | solved 192/256, stopped 128")
-    assert train_script._progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1,
+    assert train_script.progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1,
                                        1.7).endswith(" s | solved 1/1, stopped 1")
     del point["solved"]  # a task without a solved return
-    assert "solved" not in train_script._progress_line(7168, point, 1, 1.7)
+    assert "solved" not in train_script.progress_line(7168, point, 1, 1.7)
 
 
 def test_the_summary_line_never_prints_none():
@@ -134,18 +134,18 @@ def _checkpoint_arrays(path):
 def _interrupted_run(out: str, signals: int) -> int:
     """`main(RUN --out out)` sent `signals` real SIGINTs at its first evaluation point, while
     the run is going; its exit code."""
-    line = train_script._progress_line
+    line = train_script.progress_line
 
     def progress_then_interrupt(*args):
         for _ in range(signals):
             os.kill(os.getpid(), signal.SIGINT)
         return line(*args)
 
-    train_script._progress_line = progress_then_interrupt
+    train_script.progress_line = progress_then_interrupt
     try:
         return train_script.main(RUN + ["--out", out])
     finally:
-        train_script._progress_line = line
+        train_script.progress_line = line
 
 
 @pytest.fixture(scope="module")
