@@ -21,6 +21,8 @@
 #          data parallel over all; without flags, four sizes, one process each)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
+#        bash benchmarks/gpu.sh sweep [benchmarks/sweep.py flags] (64 settings x 4 seeds of fast
+#          in one program against one seed's run; the delivered mode's wheels)
 #        bash benchmarks/gpu.sh presets [presets_delivered.py flags] (4 seeds of each preset,
 #          every delivered policy scored in Gymnasium; the same wheels as delivered)
 #        bash benchmarks/gpu.sh delivered [benchmarks/delivered.py flags, e.g. --cold] (the
@@ -78,6 +80,9 @@ gymnasium.make('InvertedPendulum-v5').close()" || exit 1
     run python3 -m benchmarks.delivered --seeds 0 1 2 --many 256 --judge ours "$@" ;;
   presets)
     run python3 -m benchmarks.presets_delivered "$@" ;;
+  sweep)
+    python3 -c "import tyro, tensorboardX; from mujoco import mjx" || exit 1
+    run python3 -m benchmarks.sweep --grid 64 --seeds 4 --separate 1 "$@" ;;
   *)
     echo "unknown mode $mode"; exit 2 ;;
 esac

@@ -544,6 +544,43 @@ def _target_parallel():
                     any(r["speedup"] >= 1.8 for r in large))]
 
 
+SWEEP_CPU = "python -m benchmarks.sweep --warm"
+SWEEP_GPU = "bash benchmarks/gpu.sh sweep --warm"
+
+
+def _sweep_rows(name: str, data: dict) -> List[List[str]]:
+    r, rows = data["result"], []
+    for label in ("cold", "warm"):
+        if label not in r:
+            continue
+        sweep, separate = r[label]["sweep"], r[label]["separate"]
+        rows.append([f"{r['settings']} x {r['seeds']}, {label} cache", _machine(data),
+                     _date(data), f"{sweep['process_wall_s']:.1f} (compile "
+                     f"{sweep['compile_s']:.1f})", f"{sweep['solved']}/{sweep['runs']}",
+                     f"{separate['runs']}: {separate['process_wall_s']:.1f}",
+                     f"**{r[label]['ratio']:.2f}**", f"`{name}.json`"])
+    return rows
+
+
+def sweep() -> str:
+    """A sweep in one program against the same runs one process each (process wall times)."""
+    return _sources([(_find("sweep-cpu"), SWEEP_CPU), (_gpu("sweep"), SWEEP_GPU)],
+                    ["settings x seeds", "machine", "date", "sweep s", "solved",
+                     "separate runs: total s", "sweep / separate", "results"], _sweep_rows)
+
+
+def _target_sweep(kind: str, limit: float):
+    name = _find("sweep-cpu") if kind == "cpu" else _gpu("sweep")
+    if name is None:
+        return None
+    r = _load(name)["result"]
+    ratio = r["cold"]["ratio"]
+    warm = f", warm {r['warm']['ratio']:.2f}x" if "warm" in r else ""
+    return [name], [(f"{r['settings']} x {r['seeds']} in {ratio:.2f}x the time of "
+                     f"{r['cold']['separate']['runs']} separate run(s) (cold{warm})",
+                     ratio <= limit)]
+
+
 TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, False or None)])
     #          or None where nothing is measured, which of those (figure, met) pairs)
     ("CPU: `sac_update` ≥ 2x the PyTorch seed-002 update loop", "Gradient updates",
@@ -564,6 +601,10 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
      "Following a run", _target_progress, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
      "Several devices", _target_parallel, 0),
+    ("GPU: a sweep of 64 settings x 4 seeds of `fast` in one program, wall time ≤ 3x one "
+     "seed's run", "Sweeps", lambda: _target_sweep("gpu", 3.0), 0),
+    ("CPU: 8 settings x 2 seeds in one program, reported against 16 separate runs", "Sweeps",
+     lambda: _target_sweep("cpu", 1.0), 0),
 ]
 
 
@@ -589,7 +630,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     "presets": presets, "env-gpu": env_gpu, "env-cpu": env_cpu, "evaluation": evaluation,
     "updates-cpu": updates_cpu, "seed-scaling": seed_scaling, "profile": profile,
     "brax": brax, "torch": torch_loop, "progress": progress, "parallel": parallel,
-    "memory": memory}
+    "memory": memory, "sweep": sweep}
 
 
 def render(text: str) -> str:
