@@ -207,7 +207,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
             if stop_on_non_finite:
                 status, message = NON_FINITE, f"non-finite {bad} at environment step {steps}"
                 break
-            finite_runs = np.all(jax.tree_util.tree_leaves(jax.device_get(flags)), axis=0)
+            finite_runs = np.all([np.broadcast_to(f, (seeds,))  # shared counters: one flag
+                                  for f in jax.tree_util.tree_leaves(jax.device_get(flags))],
+                                 axis=0)
             for run in np.flatnonzero(~finite_runs):
                 position["non_finite"].setdefault(str(run), steps)
         reached = new_points > points
@@ -259,8 +261,10 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
     threshold = envs.spec(config.env).solved_return
     steps = metrics["env_steps"][0, :points]
     before_training = position["startup_s"] + position["compile_s"]
-    wall = lambda step: None if step is None else round(position["walls"][str(step)], 3)
-    process = lambda step: None if step is None else round(before_training + wall(step), 3)
+    # a point reached in the chunk that a non-finite state ended was never followed: no time
+    walls = {int(k): round(v, 3) for k, v in position["walls"].items()}
+    wall = lambda step: walls.get(step)
+    process = lambda step: None if wall(step) is None else round(before_training + wall(step), 3)
     last = lambda name: [float(r) for r in metrics[name][:, points - 1]] if points else []
     selected = [int(s) if s >= 0 else None for s in np.ravel(delivered_steps)]
     solved = [solved_at(r, steps, threshold) if threshold is not None else None

@@ -55,3 +55,19 @@ def test_the_first_non_finite_array_is_named_with_its_seed():
     assert run.first_non_finite(finite(sac)) is None
     bad = sac.replace(log_alpha=sac.log_alpha.at[1].set(jnp.nan))
     assert run.first_non_finite(finite(bad)) == "log_alpha of seed 1"
+
+
+def test_a_sweep_trains_on_past_a_setting_that_diverges():
+    """With `stop_on_non_finite=False` (scripts/sweep.py), a setting whose state becomes
+    non-finite (critic learning rate 1e30) is reported per seed, and the other setting's seeds
+    train to the end (that a setting trains as its own config's run does is tests/test_train.py's
+    float64 check); without the option the run stops, naming the first seed of that setting."""
+    settings = {"critic_lr": [CONFIG.critic_lr, 1e30]}
+    result = run.run_training(CONFIG, seeds=2, settings=settings, stop_on_non_finite=False)
+    assert result.status == run.FINISHED and result.points == CONFIG.num_evals
+    at = result.summary["non_finite_at_step"]
+    assert at[:2] == [None, None] and all(isinstance(s, int) and s > 0 for s in at[2:]), at
+    assert np.isfinite(result.metrics["eval_return"][:2]).all()
+    assert np.isfinite(result.metrics["delivered_return"]).all()  # kept from before
+    stopped = run.run_training(CONFIG, seeds=2, settings=settings)
+    assert stopped.status == run.NON_FINITE and "seed 2" in stopped.message, stopped.message
