@@ -569,16 +569,18 @@ def sweep() -> str:
                      "separate runs: total s", "sweep / separate", "results"], _sweep_rows)
 
 
-def _target_sweep(kind: str, limit: float):
+def _target_sweep(kind: str, limit: Optional[float]):
+    """The sweep against separate runs, cold and warm; met where both ratios are within
+    `limit` (None: a figure to report, met once measured)."""
     name = _find("sweep-cpu") if kind == "cpu" else _gpu("sweep")
     if name is None:
         return None
     r = _load(name)["result"]
-    ratio = r["cold"]["ratio"]
+    ratios = [r[label]["ratio"] for label in ("cold", "warm") if label in r]
     warm = f", warm {r['warm']['ratio']:.2f}x" if "warm" in r else ""
-    return [name], [(f"{r['settings']} x {r['seeds']} in {ratio:.2f}x the time of "
-                     f"{r['cold']['separate']['runs']} separate run(s) (cold{warm})",
-                     ratio <= limit)]
+    figure = (f"{r['settings']} x {r['seeds']} in {ratios[0]:.2f}x the time of "
+              f"{r['cold']['separate']['runs']} separate run(s) (cold{warm})")
+    return [name], [(figure, True if limit is None else all(x <= limit for x in ratios))]
 
 
 TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, False or None)])
@@ -604,7 +606,7 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("GPU: a sweep of 64 settings x 4 seeds of `fast` in one program, wall time ≤ 3x one "
      "seed's run", "Sweeps", lambda: _target_sweep("gpu", 3.0), 0),
     ("CPU: 8 settings x 2 seeds in one program, reported against 16 separate runs", "Sweeps",
-     lambda: _target_sweep("cpu", 1.0), 0),
+     lambda: _target_sweep("cpu", None), 0),
 ]
 
 

@@ -2,7 +2,12 @@
 file, written under a temporary name and renamed, and read back against a template.
 
 File layout (flax's msgpack encoding, never pickle):
-    {"format": FORMAT, "meta": {...JSON-able...}, "leaves": {"0": array, "1": array, ...}}
+    {"format": FORMAT, "meta": {...JSON-able...}, "leaves": {"0": array, "1": array, ...},
+     "crc32": {"0": int, "1": int, ...}}
+"crc32" holds each leaf's CRC-32 of its bytes (`zlib.crc32`), checked on load: bytes flipped
+inside an array's data, which msgpack would read back as other numbers, are refused with
+`CheckpointError` naming the file and the array. (Files of earlier sac-jax carry no checksums
+and load unchecked.)
 Leaves are the `jax.tree_util` leaves of the saved pytree in order; typed PRNG key arrays (of JAX's default
 implementation) are stored as their raw `jax.random.key_data` and re-wrapped on load. Loading checks every leaf's
 shape and dtype against the template (`jax.eval_shape` of the state's constructor), so a
@@ -13,6 +18,7 @@ before anything is built from it.
 from __future__ import annotations
 
 import os
+import zlib
 from typing import Any, Callable, Tuple, Union
 
 import jax
@@ -47,12 +53,17 @@ def to_host(tree: Any) -> list:
     return [np.array(x) for x in _stored_leaves(tree)]
 
 
+def _crc32(array: np.ndarray) -> int:
+    return zlib.crc32(np.ascontiguousarray(array).view(np.uint8).reshape(-1))
+
+
 def save(path: str, tree: Any, meta: dict) -> None:
     """Writes `tree` and `meta` to `path` atomically (temporary file in the same directory, then
     `os.replace`): however the process is stopped, `path` holds either the previous checkpoint or
     this one. (No fsync: this guards against stopped processes, not against power loss.)"""
-    payload = {"format": FORMAT, "meta": meta,
-               "leaves": {str(i): np.asarray(x) for i, x in enumerate(_stored_leaves(tree))}}
+    leaves = {str(i): np.asarray(x) for i, x in enumerate(_stored_leaves(tree))}
+    payload = {"format": FORMAT, "meta": meta, "leaves": leaves,
+               "crc32": {i: _crc32(x) for i, x in leaves.items()}}
     tmp = f"{path}.tmp-{os.getpid()}"
     try:
         with open(tmp, "wb") as f:
@@ -77,6 +88,7 @@ def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, d
             raise CheckpointError(f"checkpoint {path}: not a sac-jax checkpoint (format "
                                   f"{payload.get('format') if isinstance(payload, dict) else '?'})")
         stored, meta = payload["leaves"], dict(payload["meta"], format=payload["format"])
+        checksums = payload.get("crc32")
     except CheckpointError:
         raise
     except Exception as error:  # msgpack raises several types on damaged input
@@ -95,6 +107,9 @@ def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, d
     leaves = []
     for i, want in enumerate(expected):
         got = np.asarray(stored[str(i)])
+        if checksums is not None and _crc32(got) != checksums.get(str(i)):
+            raise CheckpointError(f"checkpoint {path}: damaged (array {i} does not match its "
+                                  "checksum)")
         if _is_key(want):
             ref = jax.eval_shape(jax.random.key_data, want)
             if got.shape != ref.shape or got.dtype != ref.dtype:

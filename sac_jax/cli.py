@@ -74,6 +74,29 @@ def positive(name: str, value: int) -> None:
         raise ValueError(f"--{name.replace('_', '-')}={value!r}: must be a positive integer")
 
 
+class LeaveNow(Exception):
+    """Raised by a script's `main` that has said why in one line and must exit with `code`
+    without waiting for the device, which may still run the chunk it left (`run_main`)."""
+
+    def __init__(self, code: int):
+        super().__init__(code)
+        self.code = code
+
+
+def run_main(main) -> None:
+    """`sys.exit(main())`; on `LeaveNow`, `os._exit(code)` after flushing: an interpreter
+    shutting down waits for the device's running computation (a minute, measured)."""
+    import os
+
+    try:
+        code = main()
+    except LeaveNow as leave:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(leave.code)
+    sys.exit(code)
+
+
 def fail(error: Exception, code: int) -> int:
     """Prints `error` as one 'error: ...' line on stderr; returns the exit code `code`."""
     print(f"error: {error}", file=sys.stderr)

@@ -11,8 +11,10 @@ file named by a hash of everything the trace depends on:
     the source of every module of `sac_jax` and `envs` (and the environments' assets).
 A later process reads the file, compiles the deserialized program (`Exported.call` under
 `jax.jit`; the persistent compilation cache then supplies the executable) and rebuilds the
-result's tree from the structure the caller states. A file that cannot be read is traced again
-and replaced; files are written under a temporary name and renamed.
+result's tree from the structure the caller states. Each file starts with MAGIC and the SHA-256
+of the serialized program: a file whose bytes do not match (damaged on disk) is traced again
+and replaced, with one warning; one that cannot be read otherwise (e.g. from an incompatible
+jax) is traced again silently. Files are written under a temporary name and renamed.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import importlib.metadata
 import os
 import platform
 import sys
+import warnings
 from typing import Any, Callable, Optional, Sequence
 
 import jax
@@ -66,11 +69,24 @@ def program_file(name: str, args: Sequence[Any]) -> str:
     return digest.hexdigest()[:32] + ".jaxexport"
 
 
+MAGIC = b"sac-jax program 1\n"
+"""The first bytes of a file of this cache, before the SHA-256 of the rest."""
+
+
 def _read(path: str) -> Optional[export.Exported]:
     try:
         with open(path, "rb") as f:
-            return export.deserialize(bytearray(f.read()))
-    except Exception:  # missing, damaged or from an incompatible jax: trace again
+            data = f.read()
+    except OSError:  # missing or unreadable: trace again
+        return None
+    digest, payload = data[len(MAGIC):len(MAGIC) + 32], data[len(MAGIC) + 32:]
+    if not data.startswith(MAGIC) or hashlib.sha256(payload).digest() != digest:
+        warnings.warn(f"cached program {path} is damaged (checksum mismatch); tracing it "
+                      "again", stacklevel=3)
+        return None
+    try:
+        return export.deserialize(bytearray(payload))
+    except Exception:  # from an incompatible jax: trace again
         return None
 
 
@@ -78,8 +94,9 @@ def _write(path: str, exported: export.Exported) -> None:
     os.makedirs(os.path.dirname(path), exist_ok=True)
     tmp = f"{path}.tmp-{os.getpid()}"
     try:
+        payload = bytes(exported.serialize())
         with open(tmp, "wb") as f:
-            f.write(exported.serialize())
+            f.write(MAGIC + hashlib.sha256(payload).digest() + payload)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -36,6 +36,26 @@ from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
 
 
+class DeviceBusy(Exception):
+    """A stop was asked for while the device still ran a chunk, and the chunk did not end
+    within the grace period: the run was left without waiting for it (its last checkpoint is
+    the last saved one). The process should exit: the device may still be running."""
+
+
+def _wait(array: jax.Array, should_stop: Optional[Callable[[], bool]], grace_s: float) -> None:
+    """Waits for `array` by polling, so that signal handlers run while the device works (a
+    blocking fetch holds them off until it returns); raises `DeviceBusy` once `should_stop()`
+    has been true for `grace_s` seconds of the wait."""
+    asked = None
+    while not array.is_ready():
+        time.sleep(0.001)
+        if should_stop is not None and should_stop():
+            asked = time.perf_counter() if asked is None else asked
+            if time.perf_counter() - asked >= grace_s:
+                raise DeviceBusy(f"the device was still running a chunk {grace_s:g} s after "
+                                 "the stop was asked for")
+
+
 @dataclasses.dataclass
 class RunResult:
     """`metrics`: numpy arrays (seeds, num_evals), NaN after the `points` evaluations done, with
@@ -135,7 +155,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
                  should_stop: Optional[Callable[[], bool]] = None,
                  started: Optional[float] = None, check_memory: bool = True,
-                 stop_on_non_finite: bool = True) -> RunResult:
+                 stop_on_non_finite: bool = True, stop_grace_s: float = 10.0) -> RunResult:
     """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split over the
     local devices when they divide `seeds`) driven one chunk at a time. With
     `config.stop_when_solved` the run ends as FINISHED once every seed has stopped.
@@ -151,7 +171,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         actor has reached it (`delivered_return`), and means["stopped"] the fraction stopped.
     on_checkpoint(state, position): after every evaluation point and when stopping on request;
         the state is not touched afterwards until the call returns (save it there).
-    should_stop(): polled after every chunk; True ends the run as INTERRUPTED.
+    should_stop(): polled after every chunk; True ends the run as INTERRUPTED. Also polled while
+        the host waits for a chunk: if it stays True for `stop_grace_s` seconds before the chunk
+        ends, `DeviceBusy` is raised (the last saved checkpoint stays the last good one).
     started: `time.perf_counter()` at the start of the process, for the summary's times from
         process start (default: this call's start).
     check_memory: refuse (`sac_jax.memory.MemoryRefused`, before anything is compiled) a run
@@ -187,7 +209,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     status, message = FINISHED, ""
 
     def points_done(state) -> int:
-        iterations = int(state.iteration)  # waits for the chunk
+        _wait(state.iteration, should_stop, stop_grace_s)
+        iterations = int(state.iteration)
         return max(0, (iterations - config.prefill_iterations) // config.iterations_per_eval)
 
     def all_stopped(state) -> bool:

@@ -51,11 +51,11 @@ import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
 from sac_jax import hyperparams, memory, run_dir  # noqa: E402
-from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest, fail, parse_with_preset,  # noqa: E402
-                         progress_line, write_results)
+from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest, fail,  # noqa: E402
+                         parse_with_preset, progress_line, run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, run_training  # noqa: E402
+from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
 
 RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
                 "--no-memory-check")
@@ -407,11 +407,13 @@ def main(argv=None) -> int:
                 print(f"program {i + 1}: {result.message}; checkpoint saved: continue with "
                       f"--resume {out}", file=sys.stderr, flush=True)
                 return EXIT_CODES[stop.signal]
-    except KeyboardInterrupt:  # a second signal: stop at once; every file is whole or absent
+    except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
         name = signal.Signals(stop.signal or signal.SIGINT).name
-        print(f"error: {name} again: stopped at once; continue with --resume {out}",
-              file=sys.stderr, flush=True)
-        return EXIT_CODES.get(stop.signal, 130)
+        why = (f"{name}: {error}; stopped without it" if isinstance(error, DeviceBusy)
+               else f"{name} again: stopped at once")
+        print(f"error: {why}; continue with --resume {out}", file=sys.stderr, flush=True)
+        # at once: the device may still run the chunk, which an exiting interpreter awaits
+        raise LeaveNow(EXIT_CODES.get(stop.signal, 130))
     except ValueError as error:  # a program's checkpoint that cannot be read back
         return fail(error, 2)
     finally:
@@ -434,4 +436,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_main(main)

@@ -13,8 +13,9 @@ checkpoint.msgpack (at every evaluation), tensorboard/ (live), and at the end me
 summary.json and curves.png. What the run delivers is each seed's best confirmed actor
 (`sac_jax.selection`), which `sac_jax.load_policy` and scripts/evaluate.py load.
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
-summary, and exits with 130 or 143 (a second one stops at once); `--resume` continues it to the
-same result as an uninterrupted run. A non-finite parameter stops the run (exit 1) and keeps the
+summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s after the first,
+stops at once, keeping the last checkpoint); `--resume` continues it to the same result as an
+uninterrupted run. A non-finite parameter stops the run (exit 1) and keeps the
 last good checkpoint. Bad input, or a run that cannot fit in memory, ends with one line on
 stderr and exit 2, before anything is written.
 """
@@ -38,9 +39,9 @@ import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import memory, run_dir  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, run_training  # noqa: E402
-from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest, fail, parse_with_preset,  # noqa: E402
-                         progress_line, write_results)
+from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
+from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest, fail,  # noqa: E402
+                         parse_with_preset, progress_line, run_main, write_results)
 
 RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
                 "--no-memory-check")
@@ -193,13 +194,16 @@ def main(argv=None) -> int:
                 signal.signal(s, handler)
             tensorboard.close()
             checkpoints.close()
-    except KeyboardInterrupt:  # a second signal: stop at once; every file is whole or absent
+    except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
         name = signal.Signals(stop.signal or signal.SIGINT).name
         kept = ("the last checkpoint written is kept: continue with --resume "
                 f"{out}" if os.path.exists(os.path.join(out, run_dir.CHECKPOINT))
                 else "no checkpoint was written")
-        print(f"error: {name} again: stopped at once; {kept}", file=sys.stderr, flush=True)
-        return EXIT_CODES.get(stop.signal, 130)
+        why = (f"{name}: {error}; stopped without it" if isinstance(error, DeviceBusy)
+               else f"{name} again: stopped at once")
+        print(f"error: {why}; {kept}", file=sys.stderr, flush=True)
+        # at once: the device may still run the chunk, which an exiting interpreter awaits
+        raise LeaveNow(EXIT_CODES.get(stop.signal, 130))
     write_results(out, config, info, result)
     s = result.summary
     if result.status == FINISHED:
@@ -217,4 +221,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_main(main)

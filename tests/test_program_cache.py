@@ -80,3 +80,21 @@ def test_a_result_of_another_structure_is_refused(tmp_path):
     state = _state()
     with pytest.raises(ValueError, match="returns"):
         cached_compile(lambda s: s["x"], "x", [state], state, str(tmp_path))
+
+
+def test_a_file_with_flipped_bytes_is_traced_again_with_one_warning(tmp_path):
+    """Bytes flipped in the middle of a stored program deserialized into a program that failed
+    to compile ("SmallVector unable to grow"); its checksum now catches it first."""
+    calls = []
+    step = _step_counting_traces(calls)
+    state, scale = _state(), jnp.float32(2.0)
+    cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    (path,) = [tmp_path / name for name in os.listdir(tmp_path)]
+    data = bytearray(path.read_bytes())
+    middle = len(data) // 2
+    data[middle:middle + 8] = bytes(b ^ 0xFF for b in data[middle:middle + 8])
+    path.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="damaged .checksum mismatch.; tracing it again"):
+        program = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    assert len(calls) == 2 and path.read_bytes() != bytes(data)
+    np.testing.assert_array_equal(program(state, scale)["x"], jax.jit(step)(state, scale)["x"])

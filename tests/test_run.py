@@ -71,3 +71,18 @@ def test_a_sweep_trains_on_past_a_setting_that_diverges():
     assert np.isfinite(result.metrics["delivered_return"]).all()  # kept from before
     stopped = run.run_training(CONFIG, seeds=2, settings=settings)
     assert stopped.status == run.NON_FINITE and "seed 2" in stopped.message, stopped.message
+
+
+def test_a_stop_the_device_does_not_answer_in_time_leaves_the_chunk():
+    """The host polls while the device works, so a stop is seen during a chunk: within the
+    grace period the chunk is waited for and the run ends INTERRUPTED after it; past it
+    (here 0 s), `DeviceBusy` is raised without waiting (scripts/train.py then exits with one
+    line). A chunk of 2,048 iterations takes far longer than one poll."""
+    import pytest
+
+    config = CONFIG.replace(learning_starts=2048, eval_every=2048, total_steps=4096,
+                            num_envs=1)
+    result = run.run_training(config, should_stop=lambda: True)
+    assert result.status == run.INTERRUPTED and result.position["chunks_done"] == 1
+    with pytest.raises(run.DeviceBusy, match="still running a chunk 0 s after the stop"):
+        run.run_training(config, should_stop=lambda: True, stop_grace_s=0.0)

@@ -180,3 +180,43 @@ def test_tensorboard_writer_leaves_torch_unimported(tmp_path):
               "before = 'torch' in sys.modules; import torch; "
               "print(json.dumps({'before': before, 'after': 'torch' in sys.modules}))")
     assert run_json(["-c", script]) == {"before": False, "after": True}
+
+
+def _damaged_copy(out, tmp_path):
+    """A copy of the run directory `out` with bytes flipped in the middle of its checkpoint's
+    largest array (the replay observations): the file still parses."""
+    copy = tmp_path / "damaged"
+    os.makedirs(copy)
+    for name in ("config.json", "run.json"):
+        (copy / name).write_bytes(open(os.path.join(out, name), "rb").read())
+    data = bytearray(open(os.path.join(out, run_dir.CHECKPOINT), "rb").read())
+    with open(os.path.join(out, run_dir.CHECKPOINT), "rb") as f:
+        payload = serialization.msgpack_restore(f.read())
+    largest = max(payload["leaves"].values(), key=lambda x: np.asarray(x).nbytes)
+    start = bytes(data).find(np.asarray(largest).tobytes()[:64])
+    assert start > 0
+    middle = start + np.asarray(largest).nbytes // 2
+    data[middle:middle + 4] = bytes(b ^ 0xFF for b in data[middle:middle + 4])
+    (copy / run_dir.CHECKPOINT).write_bytes(bytes(data))
+    serialization.msgpack_restore(bytes(data))  # still a well-formed file
+    return str(copy)
+
+
+def test_a_checkpoint_with_flipped_array_bytes_is_refused(run, tmp_path):
+    import sac_jax
+
+    damaged = _damaged_copy(run[0], tmp_path)
+    with pytest.raises(checkpoint.CheckpointError, match=r"damaged \(array \d+ does not match"):
+        run_dir.load_checkpoint(damaged)
+    with pytest.raises(checkpoint.CheckpointError, match="damaged"):
+        sac_jax.load_policy(damaged)
+
+
+def test_resume_from_a_damaged_checkpoint_ends_with_one_line_and_exit_2(run, tmp_path, capsys):
+    from scripts import train as train_script
+
+    damaged = _damaged_copy(run[0], tmp_path)
+    assert train_script.main(["--resume", damaged]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: checkpoint {damaged}") and "damaged" in err, err
+    assert "\n" not in err

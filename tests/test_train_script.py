@@ -17,6 +17,7 @@ import pytest
 import envs
 import sac_jax
 from sac_jax import run_dir
+from sac_jax.cli import LeaveNow
 from scripts import train as train_script
 
 
@@ -144,6 +145,8 @@ def _interrupted_run(out: str, signals: int) -> int:
     train_script.progress_line = progress_then_interrupt
     try:
         return train_script.main(RUN + ["--out", out])
+    except LeaveNow as leave:  # stopped at once (the process then exits without waiting)
+        return leave.code
     finally:
         train_script.progress_line = line
 
