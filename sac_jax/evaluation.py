@@ -29,7 +29,14 @@ def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int)
     same either way (0.62 s against 0.65 s, BENCHMARKS.md). `tests/test_evaluation.py` checks
     the returns against episodes run one by one.
     """
-    start = initial_states(env, key, num_episodes)
+    return evaluate_from(agent, env, actor_params, initial_states(env, key, num_episodes))
+
+
+def evaluate_from(agent: Agent, env, actor_params, start) -> jax.Array:
+    """`evaluate` from the batched initial `EnvState` `start` (leading axis: episodes); each
+    episode's return depends on its own initial state only (up to float rounding), so episodes
+    of several evaluations can share one batch."""
+    num_episodes = start.obs.shape[0]
 
     def running(carry):
         _, alive, _ = carry

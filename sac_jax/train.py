@@ -49,7 +49,7 @@ from sac_jax import selection
 from sac_jax.agent import Agent, SACState, make_agent
 from sac_jax.randomness import Draws, FromKeys, Replay, check
 from sac_jax.config import SACConfig
-from sac_jax.evaluation import evaluate
+from sac_jax.evaluation import evaluate_from, initial_states
 from sac_jax.replay_buffer import ReplayBuffer, Transition
 from sac_jax.updates import sac_update, sample_noise
 
@@ -119,8 +119,16 @@ def agent_for(config: SACConfig) -> Tuple[Agent, object]:
 
 def make_train_parts(config: SACConfig,
                      progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None,
-                     randomness=None) -> TrainParts:
-    """The training loop as `TrainParts` (see the module docstring and `make_train`)."""
+                     randomness=None, one_evaluation: bool = False) -> TrainParts:
+    """The training loop as `TrainParts` (see the module docstring and `make_train`).
+
+    `one_evaluation`: step the evaluation's `eval_episodes` and the confirmation's
+    `confirm_episodes` (`sac_jax.selection`) as one batch, the confirmation then computed at
+    every point, where it is otherwise a `lax.cond` branch taken for a candidate only. The
+    episodes and their returns are the same (up to float rounding). For many seeds vmapped:
+    there the branch's predicate differs between seeds, so `vmap` computes both branches
+    anyway, and one batch halves the evaluation's sequential steps (two 1,000-step loops
+    become one; `sac_jax.run` uses it for more than one seed)."""
     agent, env = agent_for(config)
     vec = envs.VectorEnv(env, config.num_envs)
     keys = FromKeys(config.num_envs, agent.action_low, agent.action_high,
@@ -156,12 +164,11 @@ def make_train_parts(config: SACConfig,
         return sac, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
                      else nan for name in METRIC_NAMES}
 
-    def mean_return(agent: Agent, actor_params, key: jax.Array, episodes: int) -> jax.Array:
-        """Mean deterministic return over `episodes` episodes (over all devices' episodes in a
-        data-parallel run, so every device selects alike)."""
-        returns = jnp.mean(evaluate(agent, env, actor_params, key, episodes))
+    def mean_return(returns: jax.Array) -> jax.Array:
+        """Mean of deterministic returns (over all devices' episodes in a data-parallel run,
+        so every device selects alike)."""
         axis = config.data_parallel_axis
-        return returns if axis is None else jax.lax.pmean(returns, axis)
+        return jnp.mean(returns) if axis is None else jax.lax.pmean(jnp.mean(returns), axis)
 
     def evaluate_period(agent: Agent, runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
@@ -170,13 +177,21 @@ def make_train_parts(config: SACConfig,
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
         actor = runner.sac.actor_params
         with jax.named_scope("evaluate"):
-            out["eval_return"] = mean_return(agent, actor, k_eval, config.eval_episodes)
+            episodes, confirm_episodes = config.eval_episodes, config.confirm_episodes
+            start = initial_states(env, k_eval, episodes)
             # the confirmation's episodes: a key no other evaluation draws from
+            confirm_start = initial_states(env, jax.random.fold_in(k_eval, 1), confirm_episodes)
+            if one_evaluation:
+                returns = evaluate_from(agent, env, actor, jax.tree_util.tree_map(
+                    lambda a, b: jnp.concatenate([a, b]), start, confirm_start))
+                out["eval_return"] = mean_return(returns[:episodes])
+                confirmed = mean_return(returns[episodes:])
+                confirm = lambda: confirmed
+            else:
+                out["eval_return"] = mean_return(evaluate_from(agent, env, actor, start))
+                confirm = lambda: mean_return(evaluate_from(agent, env, actor, confirm_start))
             delivered, out["confirm_return"] = selection.select(
-                runner.delivered, actor, out["eval_return"],
-                lambda: mean_return(agent, actor, jax.random.fold_in(k_eval, 1),
-                                    config.confirm_episodes),
-                out["env_steps"])
+                runner.delivered, actor, out["eval_return"], confirm, out["env_steps"])
         stopped = runner.stopped
         if config.stop_when_solved:
             delivered = jax.tree_util.tree_map(
@@ -284,7 +299,7 @@ def replay(config: SACConfig, draws: Draws) -> Replay:
 
 def make_train(config: SACConfig,
                progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None,
-               randomness=None):
+               randomness=None, one_evaluation: bool = False):
     """Returns `train(key, hyperparams=None) -> (RunnerState, metrics)`, the whole run as one
     scan. `hyperparams`: {name: scalar} values to train with in place of the config's, traced
     (`sac_jax.hyperparams`; `jax.vmap(train)(keys, hyperparams.stack(configs))` trains many
@@ -299,11 +314,12 @@ def make_train(config: SACConfig,
     `randomness`, if given, is the source of acting's and learning's draws
     (`sac_jax.randomness`; e.g. `replay(config, record_draws(config, key))`), default the
     run's PRNG keys.
+    `one_evaluation`: see `make_train_parts` (set it when vmapping over many seeds).
     `progress`, if given, is called on the host with each evaluation point's metrics (through
     `jax.debug.callback`; under `vmap` once per seed). A program with a host callback is not
     kept by JAX's persistent compilation cache; `sac_jax.run` reports progress between chunks.
     """
-    parts = make_train_parts(config, progress, randomness)
+    parts = make_train_parts(config, progress, randomness, one_evaluation)
 
     def train(key: jax.Array, hyperparams: Optional[Dict[str, jax.Array]] = None):
         runner = jax.lax.scan(lambda r, _: (parts.chunk(r), None), parts.init(key, hyperparams),
