@@ -103,6 +103,21 @@ def fail(error: Exception, code: int) -> int:
     return code
 
 
+RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
+                "--no-memory-check")
+"""The flags a resumed run or sweep accepts; it keeps its own configuration."""
+
+
+def check_resume_flags(argv: Sequence[str], resume: str, what: str) -> None:
+    """ValueError naming the first flag of `argv` other than `RESUME_FLAGS`: a resumed `what`
+    ("run", "sweep") keeps its own configuration."""
+    given = [t.partition("=")[0] for t in argv if t.startswith("--")]
+    other = [flag for flag in given if flag not in RESUME_FLAGS]
+    if other:
+        raise ValueError(f"--resume={resume}: a resumed {what} keeps its own configuration; "
+                         f"remove {other[0]}")
+
+
 def parse_with_preset(cls, argv: Sequence[str], description: str):
     """The command line as `cls` (a dataclass with `preset` and `config` fields), the SACConfig
     defaults taken from `--preset` (an unknown preset is reported by the parse). UsageError

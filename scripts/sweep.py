@@ -51,15 +51,13 @@ import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
 from sac_jax import hyperparams, memory, run_dir  # noqa: E402
-from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest, fail,  # noqa: E402
-                         parse_with_preset, progress_line, run_main, write_results)
+from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
+                         check_resume_flags, fail, parse_with_preset, progress_line,
+                         run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
 
-RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
-                "--no-memory-check")
-"""The flags a resumed sweep accepts; it keeps its own settings."""
 LOSSES = ("critic_loss", "actor_loss", "alpha_loss", "value_loss", "alpha")
 
 
@@ -197,11 +195,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> SweepArgs:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_with_preset(SweepArgs, argv, __doc__)
     if args.resume is not None:
-        given = [t.partition("=")[0] for t in argv if t.startswith("--")]
-        other = [flag for flag in given if flag not in RESUME_FLAGS]
-        if other:
-            raise ValueError(f"--resume={args.resume}: a resumed sweep keeps its own "
-                             f"settings; remove {other[0]}")
+        check_resume_flags(argv, args.resume, "sweep")
     elif not args.sets:
         raise ValueError("--set: give at least one FIELD=V1,V2,... to sweep")
     return args

@@ -40,12 +40,9 @@ from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import memory, run_dir  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
-from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest, fail,  # noqa: E402
-                         parse_with_preset, progress_line, run_main, write_results)
-
-RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
-                "--no-memory-check")
-"""The flags a resumed run accepts; it keeps its own configuration."""
+from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
+                         check_resume_flags, fail, parse_with_preset, progress_line,
+                         run_main, write_results)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,11 +83,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_with_preset(TrainArgs, argv, __doc__)
     if args.resume is not None:
-        given = [t.partition("=")[0] for t in argv if t.startswith("--")]
-        other = [flag for flag in given if flag not in RESUME_FLAGS]
-        if other:
-            raise ValueError(f"--resume={args.resume}: a resumed run keeps its own "
-                             f"configuration; remove {other[0]}")
+        check_resume_flags(argv, args.resume, "run")
     return args
 
 

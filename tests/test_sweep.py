@@ -141,7 +141,7 @@ def test_settings_that_change_a_shape_get_a_program_each():
     (["--set", "actor_lr"], "error: --set 'actor_lr': expected FIELD=V1,V2,..."),
     ([], "error: --set: give at least one FIELD=V1,V2,... to sweep"),
     (["--resume", "x", "--set", "tau=0.1"], "error: --resume=x: a resumed sweep keeps its own "
-                                            "settings; remove --set"),
+                                            "configuration; remove --set"),
 ])
 def test_bad_input_ends_with_one_line_exit_2_and_nothing_written(argv, message, tmp_path,
                                                                   capsys):
