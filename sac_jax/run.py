@@ -112,8 +112,8 @@ def compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...] = ())
 def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     """(parts, compiled vmapped init, compiled vmapped chunk, compiled `_finite_flags` of the
     state's `SACState`, the state's sharding) for `seeds` seeds of `config` (with the
-    hyperparameters `swept` traced, one value per seed: `init(keys, {name: (seeds,)})`), the seeds split
-    over the local devices when there are several and they divide `seeds`
+    hyperparameters `swept` traced, one value per seed: `init(keys, {name: (seeds,)})`), the
+    seeds split over the local devices when there are several and they divide `seeds`
     (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later runs
     of the same shapes in this process neither trace nor compile again; other processes find
     the compiled programs in the persistent compilation cache and, on one device, the traced
@@ -162,9 +162,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     `config.stop_when_solved` the run ends as FINISHED once every seed has stopped.
 
     settings: {name: [value per setting]} of hyperparameters (`sac_jax.hyperparams.NAMES`) to
-        sweep: each setting (`sac_jax.hyperparams.sweep`) trains the same `seeds` keys, all S x seeds
-        runs in the one program, setting-major (run r = setting r // seeds, key r % seeds);
-        every per-seed figure of the result then has S x seeds entries.
+        sweep: each setting (`sac_jax.hyperparams.sweep`) trains the same `seeds` keys, all
+        S x seeds runs in the one program, setting-major (run r = setting r // seeds, key
+        r % seeds); every per-seed figure of the result then has S x seeds entries.
     resume: `(state, position)` read from a checkpoint; the run continues from there.
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
         metrics averaged over seeds and each seed's evaluation return; for a task with a solved

@@ -139,7 +139,8 @@ def parse_sets(sets: Sequence[str]) -> Dict[str, List]:
             try:
                 parsed.append(int(item) if kind is int else float(item))
             except ValueError:
-                raise ValueError(f"--set {name}={item!r}: not {'an integer' if kind is int else 'a number'}") from None
+                wanted = "an integer" if kind is int else "a number"
+                raise ValueError(f"--set {name}={item!r}: not {wanted}") from None
         grid[name] = parsed
     return grid
 
@@ -212,7 +213,8 @@ def _read_sweep(out: str) -> dict:
         sweep["config"] = SACConfig(**sweep["config"])
         return sweep
     except (OSError, ValueError, TypeError, KeyError) as error:
-        raise run_dir.RunDirError(f"--resume={out}: not a readable sweep directory ({error})") from None
+        raise run_dir.RunDirError(
+            f"--resume={out}: not a readable sweep directory ({error})") from None
 
 
 def _memory_lines(args: SweepArgs, programs: List[Program], seeds: int) -> List[str]:
