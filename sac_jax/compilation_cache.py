@@ -4,6 +4,8 @@ in its `programs/` folder the traced programs of `sac_jax.program_cache`."""
 from __future__ import annotations
 
 import os
+import tempfile
+import warnings
 from typing import Optional
 
 import jax
@@ -11,11 +13,19 @@ import jax
 DEFAULT_DIR = os.path.join(os.path.expanduser("~"), ".cache", "sac-jax", "jax")
 
 
-def enable_compilation_cache(directory: Optional[str] = None) -> str:
+def enable_compilation_cache(directory: Optional[str] = None) -> Optional[str]:
     """Turns the cache on in `directory` (default: $JAX_COMPILATION_CACHE_DIR or
-    ~/.cache/sac-jax/jax), caching every compilation however short; returns the directory."""
+    ~/.cache/sac-jax/jax), caching every compilation however short; returns the directory. A
+    directory that cannot be created or written leaves the cache off, with one warning, and
+    returns None: a run then compiles everything, as without the cache."""
     directory = directory or os.environ.get("JAX_COMPILATION_CACHE_DIR") or DEFAULT_DIR
-    os.makedirs(directory, exist_ok=True)
+    try:
+        os.makedirs(directory, exist_ok=True)
+        tempfile.TemporaryFile(dir=directory).close()
+    except OSError as error:
+        warnings.warn(f"compilation cache {directory}: not writable ({error.strerror}); "
+                      "compiling without it", stacklevel=2)
+        return None
     jax.config.update("jax_compilation_cache_dir", directory)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)

@@ -125,7 +125,11 @@ def cached_compile(fn: Callable, name: str, args: Sequence[Any], result: Any, di
     exported = _read(path)
     if exported is None:
         exported = export.export(jax.jit(flat))(*leaves)
-        _write(path, exported)
+        try:
+            _write(path, exported)
+        except OSError as error:  # a full or read-only disk: the next process traces again
+            warnings.warn(f"cached program {path}: not written ({error.strerror})",
+                          stacklevel=2)
     donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
     compiled = jax.jit(exported.call, donate_argnums=donated).lower(*leaves).compile(
         compiler_options=compiler_options)

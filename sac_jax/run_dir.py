@@ -58,17 +58,25 @@ def _write_json(path: str, obj) -> None:
 
 def create_directory(out: str, files: Dict[str, object]) -> None:
     """Creates the directory `out` holding the JSON `files` {name: object}: made under a
-    temporary name and renamed, so it is whole or absent. Raises `RunDirError` if `out`
-    exists (nothing in it is touched)."""
+    temporary name and renamed, so it is whole or absent. Raises `RunDirError` (one line) if
+    `out` exists (nothing in it is touched) or cannot be created or written."""
     if os.path.exists(out):
         raise RunDirError(f"--out={out}: already exists; choose a new directory")
     parent = os.path.dirname(os.path.abspath(out))
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".tmp-run-", dir=parent)
+    if os.path.exists(parent) and not os.path.isdir(parent):
+        raise RunDirError(f"--out={out}: {parent} is not a directory")
+    try:
+        os.makedirs(parent, exist_ok=True)
+        tmp = tempfile.mkdtemp(prefix=".tmp-run-", dir=parent)
+    except OSError as error:
+        raise RunDirError(f"--out={out}: cannot be created ({error.strerror})") from None
     try:
         for name, obj in files.items():
             _write_json(os.path.join(tmp, name), obj)
         os.rename(tmp, out)
+    except OSError as error:  # e.g. a full disk: nothing is left behind
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise RunDirError(f"--out={out}: cannot be written ({error.strerror})") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

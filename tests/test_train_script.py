@@ -268,3 +268,25 @@ def test_a_non_finite_state_stops_the_run_and_keeps_the_last_good_checkpoint(run
     assert "last good checkpoint kept" in err and "\n" not in err
     assert open(os.path.join(diverging, "checkpoint.msgpack"), "rb").read() == good
     assert json.load(open(os.path.join(diverging, "summary.json")))["status"] == "non-finite"
+
+
+def test_an_out_that_cannot_be_created_ends_with_one_line_and_leaves_nothing(tmp_path, capsys):
+    """`--out` under a regular file (so even root cannot create it): exit 2, one line."""
+    (tmp_path / "file").write_text("mine")
+    out = tmp_path / "file" / "run"
+    assert train_script.main(["--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"error: --out={out}: {tmp_path / 'file'} is not a directory", err
+    assert sorted(os.listdir(tmp_path)) == ["file"]
+
+
+def test_an_unwritable_cache_directory_trains_on_without_it(tmp_path, recwarn):
+    """One warning naming the directory; the run finishes and writes its results."""
+    (tmp_path / "file").write_text("mine")
+    cache = str(tmp_path / "file" / "cache")
+    out = str(tmp_path / "run")
+    assert train_script.main(RUN + ["--cache-dir", cache, "--out", out]) == 0
+    messages = [str(w.message) for w in recwarn if "compilation cache" in str(w.message)]
+    assert messages == [f"compilation cache {cache}: not writable (Not a directory); "
+                        "compiling without it"], messages
+    assert os.path.exists(os.path.join(out, "summary.json"))
