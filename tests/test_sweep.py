@@ -8,13 +8,13 @@ tests/test_train.py (`test_a_sweep_equals_separate_runs_of_its_settings`)."""
 import csv
 import os
 import shutil
-import signal
 
 import pytest
 
 import sac_jax
 from scripts import sweep as sweep_script
 from scripts import train as train_script
+from tests.signals import interrupted_main
 
 # The issue's command line.
 SWEEP = ["--preset", "pendulum", "--total-steps", "3000", "--eval-every", "1000", "--seeds",
@@ -26,28 +26,13 @@ def _rows(out):
         return list(csv.DictReader(f))
 
 
-def _interrupted_sweep(out: str) -> int:
-    """`main(SWEEP --out out)` sent a SIGINT at its first evaluation point; its exit code."""
-    line = sweep_script.progress_line
-
-    def progress_then_interrupt(*args):
-        os.kill(os.getpid(), signal.SIGINT)
-        return line(*args)
-
-    sweep_script.progress_line = progress_then_interrupt
-    try:
-        return sweep_script.main(SWEEP + ["--out", out])
-    finally:
-        sweep_script.progress_line = line
-
-
 @pytest.fixture(scope="module")
 def sweeps(tmp_path_factory):
     """The issue's sweep, whole; and the same sweep stopped by SIGINT, then resumed."""
     root = tmp_path_factory.mktemp("sweeps")
     whole, stopped = str(root / "whole"), str(root / "stopped")
     assert sweep_script.main(SWEEP + ["--out", whole]) == 0
-    code = _interrupted_sweep(stopped)
+    code = interrupted_main(sweep_script, SWEEP + ["--out", stopped])
     interrupted = str(root / "interrupted")
     shutil.copytree(stopped, interrupted)
     resumed = sweep_script.main(["--resume", stopped])

@@ -9,7 +9,6 @@ import json
 import math
 import os
 import shutil
-import signal
 
 import numpy as np
 import pytest
@@ -17,8 +16,8 @@ import pytest
 import envs
 import sac_jax
 from sac_jax import run_dir
-from sac_jax.cli import LeaveNow
 from scripts import train as train_script
+from tests.signals import interrupted_main
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -133,22 +132,8 @@ def _checkpoint_arrays(path):
 
 
 def _interrupted_run(out: str, signals: int) -> int:
-    """`main(RUN --out out)` sent `signals` real SIGINTs at its first evaluation point, while
-    the run is going; its exit code."""
-    line = train_script.progress_line
-
-    def progress_then_interrupt(*args):
-        for _ in range(signals):
-            os.kill(os.getpid(), signal.SIGINT)
-        return line(*args)
-
-    train_script.progress_line = progress_then_interrupt
-    try:
-        return train_script.main(RUN + ["--out", out])
-    except LeaveNow as leave:  # stopped at once (the process then exits without waiting)
-        return leave.code
-    finally:
-        train_script.progress_line = line
+    """`main(RUN --out out)` sent `signals` real SIGINTs at its first evaluation point."""
+    return interrupted_main(train_script, RUN + ["--out", out], signals)
 
 
 @pytest.fixture(scope="module")
