@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Literal, Optional, Sequence, Type, TypeVar
 import tyro
 from tyro import _errors
 
-from sac_jax import run_dir
+from sac_jax import metric_writers, plots
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
 
 if TYPE_CHECKING:
@@ -170,9 +170,9 @@ class StopRequest:
 
 
 def write_results(out: str, config, info: dict, result: RunResult) -> None:
-    run_dir.write_metrics(out, result.metrics, result.points)
-    run_dir.write_summary(out, dict(result.summary, preset=info["preset"]))
+    metric_writers.write_metrics(out, result.metrics, result.points)
+    metric_writers.write_summary(out, dict(result.summary, preset=info["preset"]))
     if result.points:
-        run_dir.write_curves(out, result.metrics, result.points,
+        plots.write_curves(out, result.metrics, result.points,
                              f"{config.env}, preset {info['preset']}",
                              result.summary["solved_threshold"])

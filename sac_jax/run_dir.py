@@ -16,16 +16,12 @@ written into by a new run; every later file is written to a temporary name and r
 from __future__ import annotations
 
 import collections
-import concurrent.futures
 import copy
-import csv
 import dataclasses
-import io
 import json
 import math
 import os
 import shutil
-import sys
 import tempfile
 import threading
 from typing import Callable, Dict, Optional, Tuple
@@ -34,6 +30,7 @@ import jax
 import numpy as np
 
 from sac_jax import checkpoint, hyperparams
+from sac_jax.background import BackgroundWrites
 from sac_jax.config import SACConfig
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 
@@ -52,7 +49,7 @@ def write_file(path: str, data: bytes) -> None:
     os.replace(tmp, path)
 
 
-def _write_json(path: str, obj) -> None:
+def write_json(path: str, obj) -> None:
     write_file(path, (json.dumps(obj, indent=2) + "\n").encode())
 
 
@@ -72,7 +69,7 @@ def create_directory(out: str, files: Dict[str, object]) -> None:
         raise RunDirError(f"--out={out}: cannot be created ({error.strerror})") from None
     try:
         for name, obj in files.items():
-            _write_json(os.path.join(tmp, name), obj)
+            write_json(os.path.join(tmp, name), obj)
         os.rename(tmp, out)
     except OSError as error:  # e.g. a full disk: nothing is left behind
         shutil.rmtree(tmp, ignore_errors=True)
@@ -150,32 +147,6 @@ def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
     _write_leaves(run_dir, *_checkpoint_leaves(runner), position)
 
 
-class _BackgroundWrites:
-    """Writes run in order on one background thread. A failed write is re-raised by the next
-    `_submit` or by `close()`, which waits for them all."""
-
-    def __init__(self):
-        self._pool = concurrent.futures.ThreadPoolExecutor(1)
-        self._writes: list = []
-
-    def _collect(self, wait: bool) -> None:
-        """Drops the finished writes (all, after waiting, if `wait`), re-raising a failure."""
-        finished = self._writes if wait else [w for w in self._writes if w.done()]
-        self._writes = [w for w in self._writes if w not in finished]
-        for write in finished:
-            write.result()
-
-    def _submit(self, write, *args) -> None:
-        self._collect(wait=False)
-        self._writes.append(self._pool.submit(write, *args))
-
-    def close(self) -> None:
-        try:
-            self._collect(wait=True)
-        finally:
-            self._pool.shutdown()
-
-
 def _room_for_copy(tree) -> bool:
     """Whether every device holding part of `tree` has free memory for twice that part: a copy,
     and as much again left for the next chunk. True where the backend reports no memory limit
@@ -202,7 +173,7 @@ def _on_host(tree) -> bool:
                if isinstance(leaf, jax.Array) for device in leaf.sharding.device_set)
 
 
-class CheckpointWriter(_BackgroundWrites):
+class CheckpointWriter(BackgroundWrites):
     """`save_checkpoint` off the training's critical path. `save(runner, position)` only queues
     a copy of the state in new device buffers (`jax.device_put(..., may_alias=False)`, which
     compiles nothing; the next chunk may then take over the state's own) and returns; the
@@ -240,7 +211,7 @@ class CheckpointWriter(_BackgroundWrites):
             write = lambda: _write_leaves(self._run_dir, leaves, filled, position)
         with self._lock:
             self._newest = write
-        self._submit(self._write_newest)
+        self.submit(self._write_newest)
 
 
 def load_checkpoint(run_dir: str, earlier: bool = False
@@ -271,92 +242,3 @@ def load_checkpoint(run_dir: str, earlier: bool = False
         [x, np.zeros((x.shape[0], capacity - x.shape[1]) + x.shape[2:], x.dtype)], axis=1)
     data = jax.tree_util.tree_map(pad, runner.buffer.data)
     return config, info, runner.replace(buffer=runner.buffer.replace(data=data)), meta["position"]
-
-
-def write_metrics(run_dir: str, metrics: Dict[str, np.ndarray], points: int) -> None:
-    """metrics.csv: one row per evaluation point (the first `points`) and seed."""
-    first = ["env_steps", "eval_return", "train_return"]
-    names = first + sorted(k for k in metrics if k not in first)
-    text = io.StringIO()
-    writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(["seed"] + names)
-    for s in range(metrics["eval_return"].shape[0]):
-        for p in range(points):
-            writer.writerow([s] + [metrics[k][s, p].item() for k in names])
-    write_file(os.path.join(run_dir, "metrics.csv"), text.getvalue().encode())
-
-
-def write_summary(run_dir: str, summary: dict) -> None:
-    _write_json(os.path.join(run_dir, "summary.json"), summary)
-
-
-def write_curves(run_dir: str, metrics: Dict[str, np.ndarray], points: int, title: str,
-                 threshold=None) -> None:
-    """curves.png: mean evaluation return of the last actor over seeds against environment
-    steps, with the min-max band over seeds, the mean confirmed return of the delivered actor,
-    and the task's solving threshold."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    steps = metrics["env_steps"][0, :points]
-    returns = metrics["eval_return"][:, :points]
-    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
-    ax.fill_between(steps, returns.min(axis=0), returns.max(axis=0), alpha=0.3,
-                    label=f"min-max over {returns.shape[0]} seed(s)")
-    ax.plot(steps, returns.mean(axis=0), marker="o", label="mean, last actor")
-    ax.plot(steps, metrics["delivered_return"][:, :points].mean(axis=0), marker=".",
-            linestyle=":", label="mean, delivered actor")
-    if threshold is not None:
-        ax.axhline(threshold, color="grey", linestyle="--", label=f"solved ({threshold:g})")
-    ax.set(xlabel="environment steps", ylabel="evaluation return", title=title)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    ax.grid(alpha=0.3)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", bbox_inches="tight")
-    plt.close(fig)
-    write_file(os.path.join(run_dir, "curves.png"), buffer.getvalue())
-
-
-def _summary_writer_class():
-    """tensorboardX's `SummaryWriter`, imported without importing torch. tensorboardX's writer
-    module imports torch when it is installed, only to accept torch tensors, which scalars do
-    not need: 2.2 s of every run on the CPU and 3-5 s on a GPU host with torch. A torch the
-    process has already imported is used as it is."""
-    if "torch" in sys.modules or "tensorboardX" in sys.modules:
-        from tensorboardX import SummaryWriter
-        return SummaryWriter
-    sys.modules["torch"] = None  # `import torch` raises ImportError while this is set
-    try:
-        from tensorboardX import SummaryWriter
-    finally:
-        del sys.modules["torch"]
-    return SummaryWriter
-
-
-class TensorBoard(_BackgroundWrites):
-    """Scalars of each evaluation point: every metric's mean over seeds under `mean/`, and each
-    seed's evaluation return under `eval_return/seed_<i>`, written on the background thread
-    (one scalar per seed: 28 ms a point for 256 seeds on the H100's host, which the device
-    would otherwise wait for)."""
-
-    def __init__(self, run_dir: str):
-        super().__init__()
-        self._writer = _summary_writer_class()(os.path.join(run_dir, "tensorboard"))
-
-    def _write(self, step: int, means: Dict[str, float], eval_returns: np.ndarray) -> None:
-        for name, value in means.items():
-            if name != "env_steps" and np.isfinite(value):
-                self._writer.add_scalar(f"mean/{name}", value, step)
-        for s, value in enumerate(eval_returns):
-            self._writer.add_scalar(f"eval_return/seed_{s}", float(value), step)
-        self._writer.flush()
-
-    def add_point(self, step: int, means: Dict[str, float], eval_returns) -> None:
-        self._submit(self._write, step, dict(means), np.array(eval_returns))
-
-    def close(self) -> None:
-        try:
-            super().close()
-        finally:
-            self._writer.close()

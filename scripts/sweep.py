@@ -50,7 +50,7 @@ from typing import Annotated, Dict, List, Optional, Sequence, Tuple  # noqa: E40
 import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
-from sac_jax import hyperparams, memory, run_dir  # noqa: E402
+from sac_jax import hyperparams, memory, metric_writers, run_dir  # noqa: E402
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, fail, parse_with_preset, progress_line,
                          run_main, write_results)
@@ -247,7 +247,7 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
     print(f"program {i + 1}/{count} ({'resuming, ' if resume else ''}{swept}): "
           f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs, "
           f"{program.config.run_steps} steps each; {fits} -> {path}", flush=True)
-    tensorboard = run_dir.TensorBoard(path)
+    tensorboard = metric_writers.TensorBoard(path)
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, runs, elapsed), flush=True)

@@ -38,7 +38,7 @@ import tyro  # noqa: E402
 import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax import memory, run_dir  # noqa: E402
+from sac_jax import memory, metric_writers, run_dir  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, fail, parse_with_preset, progress_line,
@@ -166,7 +166,7 @@ def main(argv=None) -> int:
     print(f"{'resuming' if resume else 'preset'} {info['preset']} on {config.env}: {seeds} "
           f"seed(s), {budget}, {config.num_envs} envs, {config.updates_per_step} "
           f"updates/iteration; {fits} -> {out}", flush=True)
-    tensorboard = run_dir.TensorBoard(out)
+    tensorboard = metric_writers.TensorBoard(out)
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, info.get("runs", seeds), elapsed), flush=True)
