@@ -72,10 +72,10 @@ def our_scores(run: str, seeds: int, episodes: int) -> list:
 
     import envs
     import sac_jax
-    from sac_jax import run_dir
+    from sac_jax import run_checkpoint
 
     policy = sac_jax.load_policy(run, 0)
-    _, _, runner, _ = run_dir.load_checkpoint(run)
+    _, _, runner, _ = run_checkpoint.load_checkpoint(run)
     env = envs.make(policy.config.env)
     evaluate = jax.jit(jax.vmap(lambda params, key: jax.numpy.mean(
         sac_jax.evaluate(policy.agent, env, params, key, episodes))))

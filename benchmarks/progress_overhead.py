@@ -40,7 +40,7 @@ import numpy as np
 
 import sac_jax
 from benchmarks.provenance import provenance, result_name, write_result
-from sac_jax import metric_writers, run_dir
+from sac_jax import metric_writers, run_checkpoint, run_dir
 from sac_jax.run import run_training
 
 
@@ -72,7 +72,7 @@ def main():
             returns["chunks"] = result.metrics["eval_return"]
             out = os.path.join(tmp, f"run{r}")
             run_dir.create(out, config, args.preset, args.seeds, 0)
-            tensorboard, checkpoints = metric_writers.TensorBoard(out), run_dir.CheckpointWriter(out)
+            tensorboard, checkpoints = metric_writers.TensorBoard(out), run_checkpoint.CheckpointWriter(out)
             result = run_training(
                 config, seeds=args.seeds,
                 on_point=lambda step, means, returns, _: tensorboard.add_point(step, means, returns),

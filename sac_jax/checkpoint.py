@@ -1,128 +1,183 @@
-"""Checkpoints: a whole training state (every pytree leaf, PRNG keys included) in one msgpack
-file, written under a temporary name and renamed, and read back against a template.
+"""Checkpoints of a pytree of arrays (PRNG keys included) with orbax-checkpoint, the format of
+Brax and MuJoCo Playground, each array checked against a CRC-32 of its bytes on load.
 
-File layout (flax's msgpack encoding, never pickle):
-    {"format": FORMAT, "meta": {...JSON-able...}, "leaves": {"0": array, "1": array, ...},
-     "crc32": {"0": int, "1": int, ...}}
-"crc32" holds each leaf's CRC-32 of its bytes (`zlib.crc32`), checked on load: bytes flipped
-inside an array's data, which msgpack would read back as other numbers, are refused with
-`CheckpointError` naming the file and the array. (Files of earlier sac-jax carry no checksums
-and load unchecked.)
-Leaves are the `jax.tree_util` leaves of the saved pytree in order; typed PRNG key arrays (of JAX's default
-implementation) are stored as their raw `jax.random.key_data` and re-wrapped on load. Loading checks every leaf's
-shape and dtype against the template (`jax.eval_shape` of the state's constructor), so a
-checkpoint from another configuration, or a damaged file, is refused with `CheckpointError`
-before anything is built from it.
+A checkpoint directory holds numbered steps, the newest `KEEP` of them (orbax's
+`CheckpointManager`: each step is written under a temporary name and renamed when complete,
+so a stopped process leaves the previous steps as they were):
+
+    <directory>/<step>/state/   the arrays, orbax's `StandardSave` (tensorstore, never pickle)
+    <directory>/<step>/meta/    JSON: {"format": FORMAT, "meta": caller's metadata,
+                                       "leaves": [{"shape", "dtype", "crc32"} per leaf]}
+
+Leaves are the `jax.tree_util` leaves of the saved pytree in order, stored as host arrays
+named "0", "1", ...; a typed PRNG key array is stored as its `jax.random.key_data` and
+wrapped again on load. Arrays with no elements, which orbax cannot store, are recreated from
+their recorded shape. Loading checks every leaf's shape and dtype against a template
+(`jax.eval_shape` of the state's constructor) before reading any data, so a checkpoint of
+another configuration is refused, then each array's CRC-32 (`zlib.crc32`): bytes flipped in
+the data files, which tensorstore may read back as other numbers, are refused too. Every
+problem is a `CheckpointError` naming the checkpoint and the array.
 """
 
 from __future__ import annotations
 
+import errno
 import os
+import shutil
 import zlib
-from typing import Any, Callable, Tuple, Union
+from typing import Any, Callable, List, Optional, Tuple, Union
 
 import jax
 import numpy as np
-from flax import serialization
 
-FORMAT = 3
-"""Format 3 holds the delivered actor and the stop flags (`sac_jax.selection`); format 2, of
-earlier sac-jax, holds the same state without them. `load` reads both and says which in the
-returned meta's "format"."""
-FORMATS = (2, FORMAT)
+FORMAT = 4
+"""Format 4 is this module's (orbax); formats 2 and 3 were single msgpack files of earlier
+sac-jax (`sac_jax.legacy_checkpoint` reads them)."""
+KEEP = 2
+ROOM_FOR_METADATA = 1 << 20
+"""Bytes a step takes beyond its arrays' (orbax's metadata files: about 20 kB measured)."""
+"""Steps kept: the newest and the one before it, to fall back on if the newest is damaged."""
 
 
 class CheckpointError(ValueError):
-    """A checkpoint that is missing, unreadable, or does not fit the expected state."""
+    """A checkpoint that is missing, unreadable, damaged, or does not fit the expected state."""
 
 
 def _is_key(leaf) -> bool:
     return jax.dtypes.issubdtype(leaf.dtype, jax.dtypes.prng_key)
 
 
-def _stored_leaves(tree: Any) -> list:
-    """The leaves of `tree` as `save` stores them, on the host: PRNG keys as their key data."""
-    return jax.device_get([jax.random.key_data(x) if _is_key(x) else x
-                           for x in jax.tree_util.tree_leaves(tree)])
-
-
-def to_host(tree: Any) -> list:
-    """`_stored_leaves` as numpy arrays of their own (copies: on a CPU a fetched array may share
-    memory with a device buffer that a later donation reuses). `save(path, to_host(tree), meta)`
-    writes the same file as `save(path, tree, meta)`."""
-    return [np.array(x) for x in _stored_leaves(tree)]
+def to_host(tree: Any) -> List[np.ndarray]:
+    """The leaves of `tree` as `save` stores them: numpy arrays of their own (copies: on a CPU
+    a fetched array may share memory with a device buffer that a later donation reuses), PRNG
+    keys as their key data. `save(d, s, to_host(tree), meta)` stores what `save(d, s, tree,
+    meta)` does."""
+    leaves = [jax.random.key_data(x) if _is_key(x) else x for x in jax.tree_util.tree_leaves(tree)]
+    return [np.array(x) for x in jax.device_get(leaves)]
 
 
 def _crc32(array: np.ndarray) -> int:
     return zlib.crc32(np.ascontiguousarray(array).view(np.uint8).reshape(-1))
 
 
-def save(path: str, tree: Any, meta: dict) -> None:
-    """Writes `tree` and `meta` to `path` atomically (temporary file in the same directory, then
-    `os.replace`): however the process is stopped, `path` holds either the previous checkpoint or
-    this one. (No fsync: this guards against stopped processes, not against power loss.)"""
-    leaves = {str(i): np.asarray(x) for i, x in enumerate(_stored_leaves(tree))}
-    payload = {"format": FORMAT, "meta": meta, "leaves": leaves,
-               "crc32": {i: _crc32(x) for i, x in leaves.items()}}
-    tmp = f"{path}.tmp-{os.getpid()}"
-    try:
-        with open(tmp, "wb") as f:
-            f.write(serialization.msgpack_serialize(payload))
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+def _ocp():
+    """orbax.checkpoint, imported when first needed (1.8 s on the CPU): a run imports it on the
+    background thread that writes its first checkpoint."""
+    import orbax.checkpoint as ocp
+    return ocp
 
 
-def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, dict]:
-    """Reads the checkpoint at `path` into the structure of `template` (a pytree of arrays or
-    `jax.ShapeDtypeStruct`s, or a function of the stored `meta` returning one); returns
-    (tree, meta), meta["format"] being the file's format (one of `FORMATS`). Raises
-    `CheckpointError` naming the path and the problem."""
-    if not os.path.isfile(path):
-        raise CheckpointError(f"checkpoint {path}: not found")
+def _manager(directory: str, create: bool):
+    ocp = _ocp()
+    # a step left half-written by a killed process is removed when the directory is next opened
+    options = ocp.CheckpointManagerOptions(max_to_keep=KEEP, create=create,
+                                           enable_async_checkpointing=False,
+                                           cleanup_tmp_directories=True)
+    return ocp.CheckpointManager(os.path.abspath(directory), options=options)
+
+
+def save(directory: str, step: int, tree: Any, meta: dict) -> None:
+    """Writes `tree` (a pytree of arrays, or `to_host`'s leaves) and the JSON-able `meta` as
+    step `step` of the checkpoint directory `directory` (created if missing), keeping the
+    newest `KEEP` steps; a step already there is replaced. Synchronous: `CheckpointWriter`
+    in `sac_jax.run_checkpoint` calls it off the training's critical path. A filesystem without
+    room for the arrays' bytes (an upper bound: orbax may compress them) is refused before
+    anything is written, with OSError(ENOSPC): orbax, failing part-way, leaves a half-written
+    step and prints pages of tracebacks from its threads. A write that fails anyway raises
+    (OSError, or tensorstore's ValueError) and leaves the earlier steps intact."""
+    leaves = to_host(tree)
+    need = sum(x.nbytes for x in leaves) + ROOM_FOR_METADATA
+    free = shutil.disk_usage(_existing_ancestor(directory)).free
+    if free < need:
+        raise OSError(errno.ENOSPC, f"{os.strerror(errno.ENOSPC)}: the checkpoint needs up to "
+                                    f"{need / 1e6:.1f} MB, {free / 1e6:.1f} MB are free")
+    records = [{"shape": list(x.shape), "dtype": x.dtype.name, "crc32": _crc32(x)}
+               for x in leaves]
+    ocp = _ocp()
+    with _manager(directory, create=True) as manager:
+        if step in manager.all_steps():
+            manager.delete(step)
+        arrays = {str(i): x for i, x in enumerate(leaves) if x.size}
+        manager.save(step, args=ocp.args.Composite(
+            state=ocp.args.StandardSave(arrays),
+            meta=ocp.args.JsonSave({"format": FORMAT, "meta": meta, "leaves": records})))
+
+
+def _existing_ancestor(path: str) -> str:
+    path = os.path.abspath(path)
+    while not os.path.exists(path):
+        path = os.path.dirname(path)
+    return path
+
+
+def steps(directory: str) -> List[int]:
+    """The complete steps of the checkpoint directory `directory`, oldest first ([] if it
+    does not exist)."""
+    if not os.path.isdir(directory):
+        return []
+    with _manager(directory, create=False) as manager:
+        return sorted(manager.all_steps())
+
+
+def load(directory: str, template: Union[Any, Callable[[dict], Any]], step: Optional[int] = None
+         ) -> Tuple[Any, dict, int]:
+    """Reads step `step` (default: the newest) of the checkpoint directory `directory` into the
+    structure of `template` (a pytree of arrays or `jax.ShapeDtypeStruct`s, or a function of the
+    stored meta returning one); returns (tree of numpy arrays and PRNG keys, meta, step).
+    Raises `CheckpointError` naming the checkpoint and the problem."""
+    available = steps(directory)
+    if not available:
+        raise CheckpointError(f"checkpoint {directory}: not found")
+    step = available[-1] if step is None else step
+    where = os.path.join(directory, str(step))
+    if step not in available:
+        raise CheckpointError(f"checkpoint {where}: no such step (steps: {available})")
+    ocp = _ocp()
     try:
-        with open(path, "rb") as f:
-            payload = serialization.msgpack_restore(f.read())
-        if not isinstance(payload, dict) or payload.get("format") not in FORMATS:
-            raise CheckpointError(f"checkpoint {path}: not a sac-jax checkpoint (format "
-                                  f"{payload.get('format') if isinstance(payload, dict) else '?'})")
-        stored, meta = payload["leaves"], dict(payload["meta"], format=payload["format"])
-        checksums = payload.get("crc32")
+        with _manager(directory, create=False) as manager:
+            header = manager.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore()))
+        header = header.meta
+        if not isinstance(header, dict) or header.get("format") != FORMAT:
+            raise CheckpointError(f"checkpoint {where}: not a sac-jax checkpoint")
+        meta, records = dict(header["meta"]), header["leaves"]
     except CheckpointError:
         raise
-    except Exception as error:  # msgpack raises several types on damaged input
-        raise CheckpointError(f"checkpoint {path}: unreadable ({type(error).__name__})") from None
+    except Exception as error:  # orbax and tensorstore raise several types on damaged input
+        raise CheckpointError(f"checkpoint {where}: unreadable ({type(error).__name__})") from None
     if callable(template):
         try:
             template = template(meta)
         except CheckpointError:
             raise
         except (KeyError, TypeError, ValueError) as error:
-            raise CheckpointError(f"checkpoint {path}: unexpected metadata ({error!r})") from None
+            raise CheckpointError(f"checkpoint {where}: unexpected metadata ({error!r})") from None
     expected, treedef = jax.tree_util.tree_flatten(template)
-    if len(stored) != len(expected):
-        raise CheckpointError(f"checkpoint {path}: holds {len(stored)} arrays, this "
+    if len(records) != len(expected):
+        raise CheckpointError(f"checkpoint {where}: holds {len(records)} arrays, this "
                               f"configuration has {len(expected)}")
+    wanted = [jax.eval_shape(jax.random.key_data, x) if _is_key(x) else x for x in expected]
+    for i, (record, want) in enumerate(zip(records, wanted)):
+        if (tuple(record["shape"]), record["dtype"]) != (tuple(want.shape), want.dtype.name):
+            raise CheckpointError(
+                f"checkpoint {where}: array {i} is {record['dtype']}{record['shape']}, expected "
+                f"{want.dtype.name}{list(want.shape)} (another configuration?)")
+    stored = {str(i): np.zeros(w.shape, w.dtype) for i, w in enumerate(wanted) if np.prod(w.shape)}
+    try:
+        with _manager(directory, create=False) as manager:
+            arrays = manager.restore(step, args=ocp.args.Composite(
+                state=ocp.args.StandardRestore(stored))).state if stored else {}
+    except Exception as error:
+        raise CheckpointError(f"checkpoint {where}: unreadable ({type(error).__name__})") from None
     leaves = []
-    for i, want in enumerate(expected):
-        got = np.asarray(stored[str(i)])
-        if checksums is not None and _crc32(got) != checksums.get(str(i)):
-            raise CheckpointError(f"checkpoint {path}: damaged (array {i} does not match its "
+    for i, (record, want, template_leaf) in enumerate(zip(records, wanted, expected)):
+        got = np.asarray(arrays[str(i)]) if str(i) in arrays else np.zeros(want.shape, want.dtype)
+        if got.shape != tuple(want.shape) or got.dtype != want.dtype or _crc32(got) != record["crc32"]:
+            raise CheckpointError(f"checkpoint {where}: damaged (array {i} does not match its "
                                   "checksum)")
-        if _is_key(want):
-            ref = jax.eval_shape(jax.random.key_data, want)
-            if got.shape != ref.shape or got.dtype != ref.dtype:
-                raise CheckpointError(f"checkpoint {path}: key {i} has shape {got.shape}, "
-                                      f"expected {ref.shape}")
-            key = jax.random.wrap_key_data(got)
-            if key.dtype != want.dtype:
-                raise CheckpointError(f"checkpoint {path}: key {i} is {key.dtype}, expected "
-                                      f"{want.dtype}")
-            leaves.append(key)
-            continue
-        if got.shape != tuple(want.shape) or got.dtype != want.dtype:
-            raise CheckpointError(f"checkpoint {path}: array {i} is {got.dtype}{list(got.shape)}, "
-                                  f"expected {want.dtype}{list(want.shape)} (another configuration?)")
+        if _is_key(template_leaf):
+            got = jax.random.wrap_key_data(got)
+            if got.dtype != template_leaf.dtype:
+                raise CheckpointError(f"checkpoint {where}: key {i} is {got.dtype}, expected "
+                                      f"{template_leaf.dtype}")
         leaves.append(got)
-    return jax.tree_util.tree_unflatten(treedef, leaves), meta
+    return jax.tree_util.tree_unflatten(treedef, leaves), meta, step

@@ -103,7 +103,7 @@ def fail(error: Exception, code: int) -> int:
     return code
 
 
-RESUME_FLAGS = ("--resume", "--cache", "--no-cache", "--cache-dir", "--memory-check",
+RESUME_FLAGS = ("--resume", "--resume-step", "--cache", "--no-cache", "--cache-dir", "--memory-check",
                 "--no-memory-check")
 """The flags a resumed run or sweep accepts; it keeps its own configuration."""
 
@@ -169,10 +169,10 @@ class StopRequest:
               "checkpoint (again to stop at once)", file=sys.stderr, flush=True)
 
 
-def write_results(out: str, config, info: dict, result: RunResult) -> None:
+def write_results(out: str, config, preset: str, result: RunResult) -> None:
     metric_writers.write_metrics(out, result.metrics, result.points)
-    metric_writers.write_summary(out, dict(result.summary, preset=info["preset"]))
+    metric_writers.write_summary(out, dict(result.summary, preset=preset))
     if result.points:
         plots.write_curves(out, result.metrics, result.points,
-                             f"{config.env}, preset {info['preset']}",
+                             f"{config.env}, preset {preset}",
                              result.summary["solved_threshold"])

@@ -8,7 +8,7 @@ The need comes from the shapes of the run's real initial state (`jax.eval_shape`
             environments, the delivered actor, keys, metric sums and outputs
 
 A run holds its state once while training, and while a checkpoint is written, a copy:
-on an accelerator with room for it, a device copy of the whole state (`run_dir.CheckpointWriter`,
+on an accelerator with room for it, a device copy of the whole state (`run_checkpoint.CheckpointWriter`,
 so the device trains on while the copy is written); on the CPU, where fetching device memory to
 the host is a view, a host copy of the state with the replay slots filled so far, at most
 `min(run_steps, buffer_size)` of each seed's buffer. So

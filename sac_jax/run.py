@@ -197,7 +197,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         if len(configs) > 1:  # every setting trains the same keys
             keys = jnp.concatenate([keys] * len(configs))
         runner = init(keys, *([values] if values else []))
-        position = {"chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
+        position = {"env_steps": 0, "chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
                     "startup_s": t0 - (t0 if started is None else started), "walls": {},
                     "non_finite": {}}
     else:
@@ -251,6 +251,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                 means["stopped"] = float(np.mean(jax.device_get(runner.stopped)))
                 on_point(step, means, np.asarray(point["eval_return"]), position["run_s"])
         stop = should_stop is not None and should_stop()
+        position["env_steps"] = int(runner.iteration) * config.num_envs
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
             on_checkpoint(runner, position)
         position["host_s"] += time.perf_counter() - host_start

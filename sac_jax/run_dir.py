@@ -1,44 +1,60 @@
 """The run directory: what a training run leaves on disk, every file complete or absent.
 
     config.json        the SACConfig
-    run.json           preset, seeds, seed (what else `--resume` needs to rebuild the program)
-    checkpoint.msgpack the whole vmapped training state, buffers and keys included
-                       (`sac_jax.checkpoint`), with the host loop's position and clocks
-    metrics.csv        one row per evaluation point and seed
+    run.json           `RunInfo`: preset, seeds, seed, swept settings (what else `--resume`
+                       needs to rebuild the program)
+    checkpoints/<step>/ the whole vmapped training state at environment step <step>, buffers
+                       and keys included, with the host loop's position and clocks: the newest
+                       two, in orbax's format (`sac_jax.run_checkpoint`, `sac_jax.checkpoint`)
+    metrics.csv        one row per evaluation point and seed       (`sac_jax.metric_writers`)
     summary.json       final figures (`sac_jax.run.RunResult.summary`) and the run's status
-    curves.png         evaluation return vs environment steps: mean over seeds, min-max band
-    tensorboard/       TensorBoard event files (tensorboardX)
+    tensorboard/       TensorBoard event files, live
+    curves.png         evaluation return vs environment steps      (`sac_jax.plots`)
 
+This module makes the directory and reads back what defines the run; the modules named above
+write the rest.
 The directory is created under a temporary name and renamed, so an existing directory is never
 written into by a new run; every later file is written to a temporary name and renamed.
 """
 
 from __future__ import annotations
 
-import collections
-import copy
 import dataclasses
 import json
-import math
 import os
 import shutil
 import tempfile
-import threading
-from typing import Callable, Dict, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import jax
-import numpy as np
 
-from sac_jax import checkpoint, hyperparams
-from sac_jax.background import BackgroundWrites
+from sac_jax import hyperparams
 from sac_jax.config import SACConfig
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
-
-CHECKPOINT = "checkpoint.msgpack"
 
 
 class RunDirError(ValueError):
     """A run directory that cannot be created or read back."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RunInfo:
+    """run.json: what besides the config defines a run. `seeds` keys are split from `seed`;
+    a sweep (`sac_jax.hyperparams.sweep`) trains them for each of its `settings`
+    ({field: [value per setting]}), all `runs` = seeds x settings in one program."""
+
+    preset: str
+    seeds: int
+    seed: int
+    settings: Optional[Dict[str, List[float]]] = None
+
+    @property
+    def runs(self) -> int:
+        return self.seeds * (len(next(iter(self.settings.values()))) if self.settings else 1)
+
+    def to_json(self) -> dict:
+        info = {"preset": self.preset, "seeds": self.seeds, "seed": self.seed}
+        return dict(info, settings=self.settings) if self.settings else info
 
 
 def write_file(path: str, data: bytes) -> None:
@@ -84,14 +100,13 @@ def create(out: str, config: SACConfig, preset: str, seeds: int, seed: int,
     """Creates the run directory `out` holding config.json and run.json (with the swept
     `settings` of `sac_jax.run.run_training`, if any). Raises `RunDirError` if `out` exists
     (nothing in it is touched)."""
-    info = {"preset": preset, "seeds": seeds, "seed": seed}
-    create_directory(out, {"config.json": dataclasses.asdict(config),
-                           "run.json": dict(info, settings=settings) if settings else info})
+    info = RunInfo(preset, seeds, seed, settings)
+    create_directory(out, {"config.json": dataclasses.asdict(config), "run.json": info.to_json()})
 
 
-def read_config(run_dir: str) -> Tuple[SACConfig, dict]:
-    """(config, run info: preset, seeds, seed, settings (None if not swept), runs (seeds x
-    settings)) of an existing run directory; `RunDirError` if either is unreadable."""
+def read_config(run_dir: str) -> Tuple[SACConfig, RunInfo]:
+    """(config, run info) of an existing run directory; `RunDirError` if either is
+    unreadable."""
     if not os.path.isdir(run_dir):
         raise RunDirError(f"{run_dir}: no such run directory")
     try:
@@ -100,10 +115,9 @@ def read_config(run_dir: str) -> Tuple[SACConfig, dict]:
         with open(os.path.join(run_dir, "run.json")) as f:
             info = json.load(f)
         settings = info.get("settings")
-        configs, _ = hyperparams.sweep(config, settings, 1)  # validates them
-        return config, {"preset": str(info["preset"]), "seeds": int(info["seeds"]),
-                        "seed": int(info["seed"]), "settings": settings,
-                        "runs": int(info["seeds"]) * len(configs)}
+        hyperparams.sweep(config, settings, 1)  # validates them
+        return config, RunInfo(str(info["preset"]), int(info["seeds"]), int(info["seed"]),
+                               settings)
     except (OSError, ValueError, TypeError, KeyError) as error:
         raise RunDirError(f"{run_dir}: not a readable run directory ({error})") from None
 
@@ -116,129 +130,3 @@ def state_template(config: SACConfig, seeds: int, settings: Optional[Dict[str, l
     init = jax.vmap(make_train_parts(configs[0]).init, out_axes=SEED_AXES)
     keys = jax.random.split(jax.random.key(0), seeds * len(configs))
     return jax.eval_shape(init, keys, *([values] if values else []))
-
-
-def _buffer_filled_to(runner: RunnerState, filled: int) -> RunnerState:
-    """`runner` with each seed's replay arrays (seeds, C, ...) cut to their first `filled` slots
-    (arrays or shapes)."""
-    cut = lambda x: (jax.ShapeDtypeStruct((x.shape[0], filled) + x.shape[2:], x.dtype)
-                     if isinstance(x, jax.ShapeDtypeStruct) else x[:, :filled])
-    data = jax.tree_util.tree_map(cut, runner.buffer.data)
-    return runner.replace(buffer=runner.buffer.replace(data=data))
-
-
-def _checkpoint_leaves(runner: RunnerState) -> Tuple[list, int]:
-    """(`checkpoint.to_host` leaves of the state to store, filled replay slots). A ring buffer
-    fills its slots in order from slot 0 and the rest stay zero, so only the filled slots
-    [0, size) of the replay buffers are stored (the seeds train in lock-step: one size)."""
-    filled = int(np.max(jax.device_get(runner.buffer.size)))
-    # cut on the host: on the device, a slice of a new length compiles a new program each time
-    runner = runner.replace(buffer=jax.device_get(runner.buffer))
-    return checkpoint.to_host(_buffer_filled_to(runner, filled)), filled
-
-
-def _write_leaves(run_dir: str, leaves: list, filled: int, position: dict) -> None:
-    checkpoint.save(os.path.join(run_dir, CHECKPOINT), leaves,
-                    {"position": position, "buffer_filled": filled})
-
-
-def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
-    """Saves the training state and the host loop's `position` (chunks done, clocks)."""
-    _write_leaves(run_dir, *_checkpoint_leaves(runner), position)
-
-
-def _room_for_copy(tree) -> bool:
-    """Whether every device holding part of `tree` has free memory for twice that part: a copy,
-    and as much again left for the next chunk. True where the backend reports no memory limit
-    (the CPU, whose device memory is the host's)."""
-    need = collections.Counter()
-    for leaf in jax.tree_util.tree_leaves(tree):
-        if not isinstance(leaf, jax.Array):
-            continue  # host memory
-        shard = leaf.nbytes * math.prod(leaf.sharding.shard_shape(leaf.shape)) // max(
-            1, math.prod(leaf.shape))
-        for device in leaf.sharding.addressable_devices:
-            need[device] += shard
-    for device, nbytes in need.items():
-        stats = device.memory_stats() or {}
-        if "bytes_limit" in stats and stats["bytes_limit"] - stats["bytes_in_use"] < 2 * nbytes:
-            return False
-    return True
-
-
-def _on_host(tree) -> bool:
-    """Whether every device array of `tree` lives on CPU devices, whose memory is the host's:
-    fetching it there (`jax.device_get`) is a view, not a copy."""
-    return all(device.platform == "cpu" for leaf in jax.tree_util.tree_leaves(tree)
-               if isinstance(leaf, jax.Array) for device in leaf.sharding.device_set)
-
-
-class CheckpointWriter(BackgroundWrites):
-    """`save_checkpoint` off the training's critical path. `save(runner, position)` only queues
-    a copy of the state in new device buffers (`jax.device_put(..., may_alias=False)`, which
-    compiles nothing; the next chunk may then take over the state's own) and returns; the
-    background thread copies it to host memory, serialises and writes it while the device
-    trains on. When saves come faster than writes, the thread writes the newest state saved and
-    skips the older ones waiting: the file always holds a whole state, the newest one written.
-    A device without room for the copy (`_room_for_copy`) gets none: `save` then waits for the
-    writes under way, whose copies it frees, and fetches the state to host memory in line.
-    (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run; copying
-    to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.) A state on the CPU
-    is always fetched in line: there the fetch is a view, and the copy the checkpoint keeps holds
-    the filled replay slots only, where a device copy would hold every slot (`sac_jax.memory`).
-    """
-
-    def __init__(self, run_dir: str):
-        super().__init__()
-        self._run_dir = run_dir
-        self._lock = threading.Lock()
-        self._newest: Optional[Callable[[], None]] = None
-
-    def _write_newest(self) -> None:
-        with self._lock:
-            write, self._newest = self._newest, None
-        if write is not None:
-            write()
-
-    def save(self, runner: RunnerState, position: dict) -> None:
-        position = copy.deepcopy(position)
-        if not _on_host(runner) and _room_for_copy(runner):
-            state = jax.device_put(runner, may_alias=False)
-            write = lambda: save_checkpoint(self._run_dir, state, position)
-        else:
-            self._collect(wait=True)
-            leaves, filled = _checkpoint_leaves(runner)
-            write = lambda: _write_leaves(self._run_dir, leaves, filled, position)
-        with self._lock:
-            self._newest = write
-        self.submit(self._write_newest)
-
-
-def load_checkpoint(run_dir: str, earlier: bool = False
-                    ) -> Tuple[SACConfig, dict, RunnerState, dict]:
-    """(config, run info, training state, position) of a run directory's checkpoint;
-    `RunDirError` (or its subclass `checkpoint.CheckpointError`) says what is wrong. A
-    checkpoint of an earlier sac-jax (format 2, which kept no delivered actor) is refused,
-    unless `earlier`: then its state comes with `delivered` and `stopped` None."""
-    config, info = read_config(run_dir)
-    template = state_template(config, info["seeds"], info["settings"])
-    capacity = config.buffer_size
-    path = os.path.join(run_dir, CHECKPOINT)
-
-    def stored(meta):
-        filled = meta["buffer_filled"]
-        if isinstance(filled, bool) or not isinstance(filled, int) or not 0 <= filled <= capacity:
-            raise ValueError(f"buffer_filled={filled!r} outside [0, {capacity}]")
-        if meta["format"] != checkpoint.FORMAT:
-            if not earlier:
-                raise checkpoint.CheckpointError(
-                    f"checkpoint {path}: written by an earlier sac-jax (format {meta['format']}) "
-                    "that kept no delivered policy; it cannot be resumed, train anew")
-            return _buffer_filled_to(template.replace(delivered=None, stopped=None), filled)
-        return _buffer_filled_to(template, filled)
-
-    runner, meta = checkpoint.load(path, stored)
-    pad = lambda x: np.concatenate(
-        [x, np.zeros((x.shape[0], capacity - x.shape[1]) + x.shape[2:], x.dtype)], axis=1)
-    data = jax.tree_util.tree_map(pad, runner.buffer.data)
-    return config, info, runner.replace(buffer=runner.buffer.replace(data=data)), meta["position"]

@@ -18,7 +18,7 @@ from typing import Any, Literal
 import jax
 import numpy as np
 
-from sac_jax import hyperparams, run_dir
+from sac_jax import hyperparams, run_checkpoint, run_dir
 from sac_jax.agent import Agent
 from sac_jax.config import SACConfig
 from sac_jax.train import agent_for
@@ -27,7 +27,7 @@ from sac_jax.train import agent_for
 class SavedPolicy:
     """Deterministic policy of one seed of a saved run; call it with numpy observations.
 
-    Attributes: `config` (the run's SACConfig), `info` (preset, seeds, seed of run.json),
+    Attributes: `config` (the run's SACConfig), `info` (its `run_dir.RunInfo`),
     `seed` (which of the run's seeds, 0..seeds-1), `which` ("best": the delivered actor,
     "last": the last update's), `agent` and `actor_params` (that actor's parameters, for use
     inside JAX, e.g. with `sac_jax.evaluate`).
@@ -62,7 +62,7 @@ def load_policy(path: str, seed: int = 0, which: Literal["best", "last"] = "best
     `seed` of the settings x seeds, setting-major) of the run directory `path`:
     `which="best"` the delivered actor (best confirmed evaluation), `"last"` the last update's.
 
-    Reads config.json, run.json and checkpoint.msgpack; nothing is compiled but the policy
+    Reads config.json, run.json and the newest checkpoint; nothing is compiled but the policy
     (the checkpoint is checked against `jax.eval_shape` of the training state). A run written
     by an earlier sac-jax kept no delivered actor: its last actor is loaded, with a warning
     saying so. Raises `run_dir.RunDirError` or `checkpoint.CheckpointError` (ValueErrors with
@@ -72,17 +72,17 @@ def load_policy(path: str, seed: int = 0, which: Literal["best", "last"] = "best
     if which not in ("best", "last"):
         raise ValueError(f"which={which!r}: must be 'best' or 'last'")
     config, info = run_dir.read_config(path)
-    runs = info["runs"]  # seeds, times the settings of a sweep (`run_dir.read_config`)
+    runs = info.runs  # seeds, times the settings of a sweep
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < runs:
         raise ValueError(f"seed={seed!r}: run {path} has seeds 0..{runs - 1}")
-    _, _, runner, _ = run_dir.load_checkpoint(path, earlier=True)
+    _, _, runner, _ = run_checkpoint.load_checkpoint(path, earlier=True)
     if runner.delivered is None and which == "best":
         warnings.warn(f"{path} was written by an earlier sac-jax, which kept no delivered "
                       "policy: loading its last policy", stacklevel=2)
         which = "last"
     params = runner.delivered.actor_params if which == "best" else runner.sac.actor_params
     # a sweep's run: its setting's config (`sac_jax.hyperparams.sweep`, setting-major)
-    config = hyperparams.sweep(config, info["settings"], 1)[0][int(seed) // info["seeds"]]
+    config = hyperparams.sweep(config, info.settings, 1)[0][int(seed) // info.seeds]
     agent, _ = agent_for(config)
     params = jax.device_put(jax.tree_util.tree_map(lambda x: x[int(seed)], params))
     return SavedPolicy(config, info, int(seed), agent, params, which)

@@ -50,7 +50,7 @@ from typing import Annotated, Dict, List, Optional, Sequence, Tuple  # noqa: E40
 import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
-from sac_jax import hyperparams, memory, metric_writers, run_dir  # noqa: E402
+from sac_jax import hyperparams, memory, metric_writers, run_checkpoint, run_dir  # noqa: E402
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, fail, parse_with_preset, progress_line,
                          run_main, write_results)
@@ -234,8 +234,8 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
         with open(os.path.join(path, "summary.json")) as f:
             if json.load(f).get("status") == FINISHED:
                 return None
-    if os.path.exists(os.path.join(path, run_dir.CHECKPOINT)):
-        _, _, state, position = run_dir.load_checkpoint(path)
+    if run_checkpoint.saved_steps(path):
+        _, _, state, position = run_checkpoint.load_checkpoint(path)
         resume = (state, position)
     else:  # never checkpointed: start it afresh
         shutil.rmtree(path, ignore_errors=True)
@@ -253,7 +253,7 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
         print(progress_line(step, means, runs, elapsed), flush=True)
         tensorboard.add_point(step, means, eval_returns)
 
-    checkpoints = run_dir.CheckpointWriter(path)
+    checkpoints = run_checkpoint.CheckpointWriter(path)
     try:
         result = run_training(
             program.config, seeds=seeds, seed=sweep["seed"], settings=program.settings,
@@ -263,7 +263,7 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
     finally:
         tensorboard.close()
         checkpoints.close()
-    write_results(path, program.config, {"preset": sweep["preset"]}, result)
+    write_results(path, program.config, sweep["preset"], result)
     return result
 
 

@@ -9,14 +9,16 @@
 Prints one progress line per evaluation point (means over seeds: the last actor's and the
 delivered actor's returns; how many seeds' delivered policies are solved, and stopped) and
 writes the run directory (default runs/<preset>-<env>-<time>): config.json, run.json,
-checkpoint.msgpack (at every evaluation), tensorboard/ (live), and at the end metrics.csv,
+checkpoints/ (at every evaluation, the newest two kept), tensorboard/ (live), and at the end metrics.csv,
 summary.json and curves.png. What the run delivers is each seed's best confirmed actor
 (`sac_jax.selection`), which `sac_jax.load_policy` and scripts/evaluate.py load.
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
 summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s after the first,
 stops at once, keeping the last checkpoint); `--resume` continues it to the same result as an
 uninterrupted run. A non-finite parameter stops the run (exit 1) and keeps the
-last good checkpoint. Bad input, or a run that cannot fit in memory, ends with one line on
+last good checkpoint; so does a checkpoint that cannot be written (e.g. a full disk). A damaged
+checkpoint is refused (exit 2), naming an intact earlier one to resume from with
+`--resume-step`. Bad input, or a run that cannot fit in memory, ends with one line on
 stderr and exit 2, before anything is written.
 """
 
@@ -38,7 +40,7 @@ import tyro  # noqa: E402
 import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax import memory, metric_writers, run_dir  # noqa: E402
+from sac_jax import memory, metric_writers, run_checkpoint, run_dir  # noqa: E402
 from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, fail, parse_with_preset, progress_line,
@@ -62,6 +64,9 @@ class TrainArgs:
     resume: Optional[str] = None
     """Continue the run saved in this directory from its checkpoint, with its own configuration
     (no other run or config flags)."""
+    resume_step: Optional[int] = None
+    """With --resume: the checkpoint to continue from, by environment step (default the newest;
+    the run directory keeps the newest two)."""
     cache: bool = True
     """JAX's persistent compilation cache: a second run of the same configuration starts
     without compiling."""
@@ -75,6 +80,8 @@ class TrainArgs:
     def __post_init__(self):
         if self.seeds < 1:
             raise ValueError(f"--seeds={self.seeds}: must be at least 1")
+        if self.resume_step is not None and self.resume is None:
+            raise ValueError(f"--resume-step={self.resume_step}: only with --resume")
 
 
 def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
@@ -91,13 +98,13 @@ def _new_run(args: TrainArgs):
     """(config, run info, run directory, memory line) of a fresh run; the directory is created
     last, once every input is known to be good and the run to fit in memory. ValueError on bad
     input (`memory.MemoryRefused` for a run that cannot fit)."""
-    info = {"preset": args.preset, "seeds": args.seeds, "seed": args.seed}
+    info = run_dir.RunInfo(args.preset, args.seeds, args.seed)
     out = args.out or os.path.join(
         "runs", f"{args.preset}-{args.config.env}-{time.strftime('%Y%m%d-%H%M%S')}")
     if os.path.exists(out):
         raise run_dir.RunDirError(f"--out={out}: already exists; choose a new run directory")
     fits = _memory_line(args, args.config, args.seeds)
-    run_dir.create(out, args.config, **info)
+    run_dir.create(out, args.config, info.preset, info.seeds, info.seed)
     return args.config, info, out, fits
 
 
@@ -112,8 +119,8 @@ def _resumed_run(args: TrainArgs):
     """(config, run info, run directory, (state, position), memory line) of the run in
     `--resume`."""
     config, info = run_dir.read_config(args.resume)
-    fits = _memory_line(args, config, info["runs"])
-    config, info, state, position = run_dir.load_checkpoint(args.resume)
+    fits = _memory_line(args, config, info.runs)
+    config, info, state, position = run_checkpoint.load_checkpoint(args.resume, args.resume_step)
     from sac_jax.train import make_train_parts
     if position["chunks_done"] >= make_train_parts(config).num_chunks or (
             config.stop_when_solved and all(state.stopped)):
@@ -159,26 +166,26 @@ def main(argv=None) -> int:
         return fail(error, 2)
     if args.cache:
         sac_jax.enable_compilation_cache(args.cache_dir)
-    seeds = info["seeds"]
+    seeds = info.seeds
     budget = (f"up to {config.run_steps} steps each (a seed stops once its delivered policy "
               f"is confirmed at {config.stop_at:g})" if config.stop_when_solved
               else f"{config.run_steps} steps each")
-    print(f"{'resuming' if resume else 'preset'} {info['preset']} on {config.env}: {seeds} "
+    print(f"{'resuming' if resume else 'preset'} {info.preset} on {config.env}: {seeds} "
           f"seed(s), {budget}, {config.num_envs} envs, {config.updates_per_step} "
           f"updates/iteration; {fits} -> {out}", flush=True)
     tensorboard = metric_writers.TensorBoard(out)
 
     def on_point(step, means, eval_returns, elapsed):
-        print(progress_line(step, means, info.get("runs", seeds), elapsed), flush=True)
+        print(progress_line(step, means, info.runs, elapsed), flush=True)
         tensorboard.add_point(step, means, eval_returns)
 
     stop = StopRequest()
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
-    checkpoints = run_dir.CheckpointWriter(out)
+    checkpoints = run_checkpoint.CheckpointWriter(out)
     try:
         try:
             result = run_training(
-                config, seeds=seeds, seed=info["seed"], settings=info.get("settings"),
+                config, seeds=seeds, seed=info.seed, settings=info.settings,
                 resume=resume, on_point=on_point,
                 on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
                 started=STARTED, check_memory=False)  # checked above, before the run directory
@@ -187,17 +194,17 @@ def main(argv=None) -> int:
                 signal.signal(s, handler)
             tensorboard.close()
             checkpoints.close()
+    except run_checkpoint.CheckpointWriteError as error:  # e.g. a full disk
+        print(f"error: {error}; {_kept(out)}", file=sys.stderr, flush=True)
+        return 1
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
         name = signal.Signals(stop.signal or signal.SIGINT).name
-        kept = ("the last checkpoint written is kept: continue with --resume "
-                f"{out}" if os.path.exists(os.path.join(out, run_dir.CHECKPOINT))
-                else "no checkpoint was written")
         why = (f"{name}: {error}; stopped without it" if isinstance(error, DeviceBusy)
                else f"{name} again: stopped at once")
-        print(f"error: {why}; {kept}", file=sys.stderr, flush=True)
+        print(f"error: {why}; {_kept(out)}", file=sys.stderr, flush=True)
         # at once: the device may still run the chunk, which an exiting interpreter awaits
         raise LeaveNow(EXIT_CODES.get(stop.signal, 130))
-    write_results(out, config, info, result)
+    write_results(out, config, info.preset, result)
     s = result.summary
     if result.status == FINISHED:
         print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; {_outcome(s)}; wrote "
@@ -207,10 +214,16 @@ def main(argv=None) -> int:
         print(f"{result.message}; checkpoint saved: continue with --resume {out}",
               file=sys.stderr, flush=True)
         return EXIT_CODES[stop.signal]
-    kept = (f"last good checkpoint kept in {out}" if os.path.exists(
-        os.path.join(out, run_dir.CHECKPOINT)) else "no evaluation point was reached before it")
-    print(f"error: {result.message}; {kept}", file=sys.stderr, flush=True)
+    print(f"error: {result.message}; {_kept(out)}", file=sys.stderr, flush=True)
     return 1
+
+
+def _kept(out: str) -> str:
+    """Which checkpoint a run that ended early leaves to resume from."""
+    steps = run_checkpoint.saved_steps(out)
+    if not steps:
+        return "no checkpoint was written"
+    return f"the last checkpoint written (step {steps[-1]}) is kept: continue with --resume {out}"
 
 
 if __name__ == "__main__":

@@ -3,7 +3,6 @@ parameters; Gymnasium's Pendulum-v1 started from ours' initial states gives the 
 episode by episode; bad input ends with one line and a non-zero exit code."""
 
 import json
-import os
 import shutil
 import sys
 
@@ -14,10 +13,10 @@ import pytest
 
 import envs
 import sac_jax
-from sac_jax import run_dir
+from sac_jax import run_checkpoint, run_dir
 from sac_jax.train import agent_for
 from scripts import evaluate as evaluate_script
-from tests.saved_runs import fails_in_one_line, trained_pendulum, untrained
+from tests.saved_runs import damage_checkpoint, fails_in_one_line, trained_pendulum, untrained
 
 PAIRED_TOLERANCE = 0.1
 """|ours - Gymnasium| per Pendulum-v1 episode from the same initial state (returns ~ -1e3):
@@ -42,7 +41,7 @@ def test_ours_is_sac_evaluate_on_the_stored_parameters(run, capsys):
     bit for bit (the same program on the same inputs); the mean is theirs to float64
     rounding of a sum of 6 terms."""
     result = _json(capsys, [run, "--which", "ours", "--episodes", "6", "--episode-seed", "3"])
-    config, _, runner, _ = run_dir.load_checkpoint(run)
+    config, _, runner, _ = run_checkpoint.load_checkpoint(run)
     agent, env = agent_for(config)
     params = jax.tree_util.tree_map(lambda x: x[0], runner.delivered.actor_params)
     expected = np.asarray(jax.jit(lambda params, key: sac_jax.evaluate(
@@ -74,14 +73,14 @@ def _fails(capsys, argv, code, message):
     fails_in_one_line(capsys, evaluate_script.main, argv, code, message)
 
 
-def _bad_copy(run, tmp_path, checkpoint_bytes):
+def _bad_copy(run, tmp_path, damage):
+    """A copy of `run` without its checkpoints (`damage` None) or with the newest damaged."""
     path = str(tmp_path / "copy")
     shutil.copytree(run, path)
-    if checkpoint_bytes is None:
-        os.remove(os.path.join(path, run_dir.CHECKPOINT))
+    if damage is None:
+        shutil.rmtree(run_checkpoint.directory(path))
     else:
-        with open(os.path.join(path, run_dir.CHECKPOINT), "wb") as f:
-            f.write(checkpoint_bytes)
+        damage_checkpoint(path, damage)
     return path
 
 
@@ -94,7 +93,7 @@ def test_missing_checkpoint(run, tmp_path, capsys):
 
 
 def test_corrupt_checkpoint(run, tmp_path, capsys):
-    _fails(capsys, [_bad_copy(run, tmp_path, b"\x00garbage" * 50), "--which", "ours"], 2,
+    _fails(capsys, [_bad_copy(run, tmp_path, "flip"), "--which", "ours"], 2,
            "checkpoint")
 
 

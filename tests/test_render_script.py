@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 import envs
-from sac_jax import run_dir
+from sac_jax import run_checkpoint
 from scripts import render as render_script
-from tests.saved_runs import fails_in_one_line, untrained
+from tests.saved_runs import damage_checkpoint, fails_in_one_line, untrained
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -135,15 +135,13 @@ def _fails(capsys, argv, code, message):
 def test_bad_input_writes_nothing(runs, tmp_path, capsys, case, message):
     run = str(tmp_path / "copy")
     shutil.copytree(runs["pendulum"], run)
-    checkpoint = os.path.join(run, run_dir.CHECKPOINT)
     argv = [run]
     if case == "missing run":
         argv = [str(tmp_path / "nowhere")]
     elif case == "missing checkpoint":
-        os.remove(checkpoint)
+        shutil.rmtree(run_checkpoint.directory(run))
     elif case == "corrupt checkpoint":
-        with open(checkpoint, "wb") as f:
-            f.write(os.urandom(300))
+        damage_checkpoint(run, "garbage")
     elif case == "bad seed":
         argv += ["--seed", "3"]
     elif case == "bad extension":

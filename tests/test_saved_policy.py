@@ -9,10 +9,12 @@ import jax
 import numpy as np
 import pytest
 
+from flax import serialization
+
 import sac_jax
-from sac_jax import checkpoint, run_dir
+from sac_jax import checkpoint, legacy_checkpoint, run_checkpoint, run_dir
 from sac_jax.train import agent_for
-from tests.saved_runs import trained_pendulum, untrained
+from tests.saved_runs import damage_checkpoint, trained_pendulum, untrained
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +27,7 @@ def runs(tmp_path_factory):
 def _stored_actions(path, seed, obs, which="best"):
     """`Agent.act` (jitted, no key: deterministic) on the actor parameters of `seed` read
     straight from the checkpoint: the delivered actor's ("best") or the learner's ("last")."""
-    config, _, runner, _ = run_dir.load_checkpoint(path)
+    config, _, runner, _ = run_checkpoint.load_checkpoint(path)
     agent, _ = agent_for(config)
     actor = runner.delivered.actor_params if which == "best" else runner.sac.actor_params
     params = jax.tree_util.tree_map(lambda x: x[seed], actor)
@@ -55,10 +57,10 @@ def test_the_delivered_actor_by_default_the_last_one_on_request(tmp_path, runs):
     parameters, so the two policies differ; each loads its own."""
     path = str(tmp_path / "planted")
     shutil.copytree(runs["trained"], path)
-    _, _, runner, position = run_dir.load_checkpoint(path)
+    _, _, runner, position = run_checkpoint.load_checkpoint(path)
     half = jax.tree_util.tree_map(lambda x: x / 2, runner.sac.actor_params)
     planted = runner.replace(delivered=runner.delivered.replace(actor_params=half))
-    run_dir.save_checkpoint(path, planted, position)
+    run_checkpoint.save_checkpoint(path, planted, position)
     obs = _observations(16)
     best, last = (sac_jax.load_policy(path, which=w) for w in ("best", "last"))
     assert (best.which, last.which) == ("best", "last")
@@ -70,26 +72,44 @@ def test_the_delivered_actor_by_default_the_last_one_on_request(tmp_path, runs):
         sac_jax.load_policy(path, which="first")
 
 
-def test_a_run_of_an_earlier_sac_jax_delivers_its_last_actor_with_a_warning(tmp_path, runs):
+def _as_msgpack_run(path, runner, position, format):
+    """Turns the run directory `path` into one of an earlier sac-jax: its state `runner` in a
+    msgpack checkpoint of `format` (2: without the delivered actor and stop flags)."""
+    if format == 2:
+        runner = runner.replace(delivered=None, stopped=None)
+    leaves, filled = run_checkpoint._stored(runner)
+    payload = {"format": format, "meta": {"position": position, "buffer_filled": filled},
+               "leaves": {str(i): x for i, x in enumerate(leaves)}}
+    with open(os.path.join(path, legacy_checkpoint.FILE), "wb") as f:
+        f.write(serialization.msgpack_serialize(payload))
+    shutil.rmtree(run_checkpoint.directory(path))
+
+
+def test_a_run_of_an_earlier_sac_jax_loads_its_delivered_actor(tmp_path, runs):
+    """A msgpack checkpoint of format 3 (before orbax) delivers the same policy."""
+    old = str(tmp_path / "old")
+    shutil.copytree(runs["trained"], old)
+    _, _, runner, position = run_checkpoint.load_checkpoint(old)
+    _as_msgpack_run(old, runner, position, format=3)
+    obs = _observations(8)
+    np.testing.assert_array_equal(sac_jax.load_policy(old)(obs),
+                                  sac_jax.load_policy(runs["trained"])(obs))
+
+
+def test_a_run_without_a_delivered_actor_delivers_its_last_actor_with_a_warning(tmp_path, runs):
     """A format-2 checkpoint (the state without the delivered actor and stop flags) loads its
     last actor and says so; resuming it is refused in one line."""
     old = str(tmp_path / "old")
     shutil.copytree(runs["trained"], old)
-    config, _, runner, position = run_dir.load_checkpoint(old)
-    leaves, filled = run_dir._checkpoint_leaves(runner.replace(delivered=None, stopped=None))
-    checkpoint.save(os.path.join(old, run_dir.CHECKPOINT), leaves,
-                    {"position": position, "buffer_filled": filled})
-    with open(os.path.join(old, run_dir.CHECKPOINT), "r+b") as f:  # format 3 -> 2
-        data = f.read().replace(b"\xa6format\x03", b"\xa6format\x02")
-        f.seek(0)
-        f.write(data)
+    _, _, runner, position = run_checkpoint.load_checkpoint(old)
+    _as_msgpack_run(old, runner, position, format=2)
     with pytest.warns(UserWarning, match="earlier sac-jax, which kept no delivered policy"):
         policy = sac_jax.load_policy(old)
     obs = _observations(4)
     assert policy.which == "last"
     np.testing.assert_array_equal(policy(obs), _stored_actions(runs["trained"], 0, obs, "last"))
     with pytest.raises(checkpoint.CheckpointError, match="format 2.*cannot be resumed"):
-        run_dir.load_checkpoint(old)
+        run_checkpoint.load_checkpoint(old)
 
 
 def test_seed_selects_that_seeds_actor(runs):
@@ -97,7 +117,7 @@ def test_seed_selects_that_seeds_actor(runs):
     first, second = (sac_jax.load_policy(runs["two_seeds"], seed=s) for s in (0, 1))
     np.testing.assert_array_equal(second(obs), _stored_actions(runs["two_seeds"], 1, obs))
     assert not np.allclose(first(obs), second(obs))
-    assert (second.seed, second.info["seeds"], second.config.env) == (1, 2, "Pendulum-v1")
+    assert (second.seed, second.info.seeds, second.config.env) == (1, 2, "Pendulum-v1")
 
 
 @pytest.mark.parametrize("seed", [-1, 2, 1.0, True, "0"])
@@ -125,14 +145,12 @@ def test_missing_run_directory_and_checkpoint(tmp_path):
         sac_jax.load_policy(_run_without_checkpoint(tmp_path / "empty"))
 
 
-def test_corrupt_and_truncated_checkpoints(tmp_path, runs):
-    with open(os.path.join(runs["two_seeds"], run_dir.CHECKPOINT), "rb") as f:
-        good = f.read()
-    for name, data, message in [("garbage", os.urandom(1000), "unreadable|not a sac-jax"),
-                                ("truncated", good[:len(good) // 2], "unreadable")]:
-        path = str(tmp_path / name)
-        shutil.copytree(runs["two_seeds"], path)
-        with open(os.path.join(path, run_dir.CHECKPOINT), "wb") as f:
-            f.write(data)
-        with pytest.raises(checkpoint.CheckpointError, match=message):
-            sac_jax.load_policy(path)
+@pytest.mark.parametrize("how, message", [("garbage", "unreadable"),
+                                          ("truncate", "unreadable|damaged"),
+                                          ("flip", "damaged")])
+def test_damaged_checkpoints(tmp_path, runs, how, message):
+    path = str(tmp_path / how)
+    shutil.copytree(runs["trained"], path)
+    damage_checkpoint(path, how)
+    with pytest.raises(checkpoint.CheckpointError, match=message):
+        sac_jax.load_policy(path)

@@ -12,6 +12,7 @@ import shutil
 import pytest
 
 import sac_jax
+from sac_jax import run_checkpoint
 from scripts import sweep as sweep_script
 from scripts import train as train_script
 from tests.signals import interrupted_main
@@ -91,8 +92,7 @@ def test_train_command_round_trips_every_kind_of_flag():
 
 def test_a_stopped_sweep_resumes_to_the_uninterrupted_result(sweeps):
     assert sweeps["code"] == 130 and sweeps["resumed"] == 0
-    assert os.path.exists(os.path.join(sweeps["interrupted"], "programs", "0",
-                                       "checkpoint.msgpack"))
+    assert run_checkpoint.saved_steps(os.path.join(sweeps["interrupted"], "programs", "0"))
     assert not os.path.exists(os.path.join(sweeps["interrupted"], "results.csv"))
     timing = ("solved_wall_s",)
     strip = lambda rows: [{k: v for k, v in r.items() if k not in timing} for r in rows]

@@ -13,10 +13,13 @@ import shutil
 import numpy as np
 import pytest
 
+import jax
+
 import envs
 import sac_jax
-from sac_jax import run_dir
+from sac_jax import checkpoint, run_checkpoint
 from scripts import train as train_script
+from tests.saved_runs import damage_checkpoint
 from tests.signals import interrupted_main
 
 
@@ -126,9 +129,10 @@ def _metrics(path):
 
 
 def _checkpoint_arrays(path):
-    from flax import serialization
-    with open(os.path.join(path, "checkpoint.msgpack"), "rb") as f:
-        return serialization.msgpack_restore(f.read())["leaves"]
+    """The leaves of the newest checkpoint's state, PRNG keys as their key data."""
+    _, _, state, _ = run_checkpoint.load_checkpoint(path)
+    return [np.asarray(jax.random.key_data(x)) if jax.dtypes.issubdtype(
+        x.dtype, jax.dtypes.prng_key) else np.asarray(x) for x in jax.tree_util.tree_leaves(state)]
 
 
 def _interrupted_run(out: str, signals: int) -> int:
@@ -151,7 +155,7 @@ def runs(tmp_path_factory):
 
 def test_a_finished_run_directory_holds_every_output(runs):
     files = set(os.listdir(runs["whole"]))
-    assert {"config.json", "run.json", "checkpoint.msgpack", "metrics.csv", "summary.json",
+    assert {"config.json", "run.json", "checkpoints", "metrics.csv", "summary.json",
             "curves.png", "tensorboard"} <= files
     assert not [f for f in files if "tmp" in f]
     summary = json.load(open(os.path.join(runs["whole"], "summary.json")))
@@ -202,7 +206,7 @@ def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
     assert runs["code"] == 130
     summary = json.load(open(os.path.join(runs["interrupted"], "summary.json")))
     assert summary["status"] == "interrupted" and summary["total_steps"] == 2000
-    assert os.path.exists(os.path.join(runs["interrupted"], "checkpoint.msgpack"))
+    assert run_checkpoint.saved_steps(runs["interrupted"]) == [2000]
 
 
 def test_a_second_sigint_stops_at_once_with_one_line(tmp_path, capsys):
@@ -213,29 +217,28 @@ def test_a_second_sigint_stops_at_once_with_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 130, err
     assert err[-1].startswith("error: SIGINT again: stopped at once; ") and "Traceback" not in "".join(err)
-    if os.path.exists(os.path.join(out, "checkpoint.msgpack")):
-        run_dir.load_checkpoint(out)  # whole: it loads
+    if run_checkpoint.saved_steps(out):
+        run_checkpoint.load_checkpoint(out)  # whole: it loads
 
 
 def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs):
     assert train_script.main(["--resume", runs["stopped"]]) == 0
     assert _metrics(runs["stopped"]) == _metrics(runs["whole"])
     resumed, whole = _checkpoint_arrays(runs["stopped"]), _checkpoint_arrays(runs["whole"])
-    assert resumed.keys() == whole.keys()
-    for name in whole:  # parameters, optimiser states, buffers, keys: bit for bit
-        np.testing.assert_array_equal(resumed[name], whole[name])
+    assert len(resumed) == len(whole)
+    for a, b in zip(resumed, whole):  # parameters, optimiser states, buffers, keys: bit for bit
+        np.testing.assert_array_equal(a, b)
     assert train_script.main(["--resume", runs["whole"]]) == 2  # finished: nothing to do
 
 
 def test_a_corrupt_checkpoint_is_refused_in_one_line(runs, capsys):
     broken = str(runs["root"] / "broken")
     shutil.copytree(runs["interrupted"], broken)
-    with open(os.path.join(broken, "checkpoint.msgpack"), "r+b") as f:
-        f.truncate(1000)
+    damage_checkpoint(broken, "garbage")
     assert train_script.main(["--resume", broken]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: checkpoint") and "unreadable" in err and "\n" not in err
-    os.remove(os.path.join(broken, "checkpoint.msgpack"))
+    shutil.rmtree(run_checkpoint.directory(broken))
     assert train_script.main(["--resume", broken]) == 2
     assert "not found" in capsys.readouterr().err
 
@@ -246,12 +249,14 @@ def test_a_non_finite_state_stops_the_run_and_keeps_the_last_good_checkpoint(run
     config_path = os.path.join(diverging, "config.json")
     config = json.load(open(config_path))
     json.dump(dict(config, reward_scale=1e30), open(config_path, "w"))  # Q targets overflow
-    good = open(os.path.join(diverging, "checkpoint.msgpack"), "rb").read()
+    good = _checkpoint_arrays(diverging)
     assert train_script.main(["--resume", diverging]) == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: non-finite ") and "of seed 0 at environment step 3000" in err
-    assert "last good checkpoint kept" in err and "\n" not in err
-    assert open(os.path.join(diverging, "checkpoint.msgpack"), "rb").read() == good
+    assert "the last checkpoint written (step 2000) is kept" in err and "\n" not in err
+    assert run_checkpoint.saved_steps(diverging) == [2000]
+    for a, b in zip(_checkpoint_arrays(diverging), good, strict=True):
+        np.testing.assert_array_equal(a, b)
     assert json.load(open(os.path.join(diverging, "summary.json")))["status"] == "non-finite"
 
 
@@ -275,3 +280,26 @@ def test_an_unwritable_cache_directory_trains_on_without_it(tmp_path, recwarn):
     assert messages == [f"compilation cache {cache}: not writable (Not a directory); "
                         "compiling without it"], messages
     assert os.path.exists(os.path.join(out, "summary.json"))
+
+
+def test_a_checkpoint_that_cannot_be_written_ends_the_run_in_one_line(tmp_path, capsys, monkeypatch):
+    """A full disk at the second checkpoint (the writer patched to fail as orbax does, leaving
+    a half-written step): exit 1, one line naming the step and the reason and the checkpoint
+    kept, which stays whole; nothing half-written is left."""
+    save = checkpoint.save
+
+    def full_disk(directory, step, tree, meta):
+        if step > 2000:
+            os.makedirs(os.path.join(directory, f"{step}.orbax-checkpoint-tmp", "state"))
+            raise OSError(28, "No space left on device")
+        save(directory, step, tree, meta)
+
+    monkeypatch.setattr(checkpoint, "save", full_disk)
+    out = str(tmp_path / "full")
+    assert train_script.main(RUN + ["--out", out]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == (f"error: checkpoint of step 3000 in {run_checkpoint.directory(out)} could not "
+                   "be written (No space left on device); the last checkpoint written (step "
+                   f"2000) is kept: continue with --resume {out}"), err
+    assert os.listdir(run_checkpoint.directory(out)) == ["2000"]
+    run_checkpoint.load_checkpoint(out)  # whole: it loads

@@ -1,0 +1,219 @@
+"""A run's training state in its run directory (`checkpoints/<environment step>/`, orbax's
+format through `sac_jax.checkpoint`): saved off the training's critical path, the filled replay
+slots only, and read back bit for bit against the state of the run's own configuration.
+
+    writer = CheckpointWriter(run_dir)          # run_training(on_checkpoint=writer.save)
+    config, info, state, position = load_checkpoint(run_dir)        # the newest step
+"""
+
+from __future__ import annotations
+
+import collections
+import copy
+import glob
+import math
+import os
+import re
+import shutil
+import threading
+from typing import Callable, List, Optional, Tuple
+
+import jax
+import numpy as np
+
+from sac_jax import checkpoint, legacy_checkpoint
+from sac_jax.background import BackgroundWrites
+from sac_jax.config import SACConfig
+from sac_jax.run_dir import RunInfo, read_config, state_template
+from sac_jax.train import RunnerState
+
+CHECKPOINTS = "checkpoints"
+
+
+class CheckpointWriteError(OSError):
+    """A checkpoint that could not be written (e.g. a full disk); the earlier ones are intact."""
+
+
+def directory(run_dir: str) -> str:
+    return os.path.join(run_dir, CHECKPOINTS)
+
+
+def saved_steps(run_dir: str) -> List[int]:
+    """Environment steps of the run's complete checkpoints, oldest first."""
+    return checkpoint.steps(directory(run_dir))
+
+
+def _buffer_filled_to(runner: RunnerState, filled: int) -> RunnerState:
+    """`runner` with each seed's replay arrays (seeds, C, ...) cut to their first `filled` slots
+    (arrays or shapes)."""
+    cut = lambda x: (jax.ShapeDtypeStruct((x.shape[0], filled) + x.shape[2:], x.dtype)
+                     if isinstance(x, jax.ShapeDtypeStruct) else x[:, :filled])
+    data = jax.tree_util.tree_map(cut, runner.buffer.data)
+    return runner.replace(buffer=runner.buffer.replace(data=data))
+
+
+def _stored(runner: RunnerState) -> Tuple[list, int]:
+    """(`checkpoint.to_host` leaves of the state to store, filled replay slots). A ring buffer
+    fills its slots in order from slot 0 and the rest stay zero, so only the filled slots
+    [0, size) of the replay buffers are stored (the seeds train in lock-step: one size)."""
+    filled = int(np.max(jax.device_get(runner.buffer.size)))
+    # cut on the host: on the device, a slice of a new length compiles a new program each time
+    runner = runner.replace(buffer=jax.device_get(runner.buffer))
+    return checkpoint.to_host(_buffer_filled_to(runner, filled)), filled
+
+
+def _write(run_dir: str, leaves: list, filled: int, position: dict) -> None:
+    """Writes checkpoint step position["env_steps"]; `CheckpointWriteError` (one line) if it
+    cannot be written, leaving the earlier steps and no partial one."""
+    where = directory(run_dir)
+    try:
+        checkpoint.save(where, int(position["env_steps"]), leaves,
+                        {"position": position, "buffer_filled": filled})
+    except Exception as error:  # OSError, or tensorstore's ValueError naming the OS error
+        for partial in glob.glob(os.path.join(where, "*.orbax-checkpoint-tmp*")):
+            shutil.rmtree(partial, ignore_errors=True)
+        raise CheckpointWriteError(f"checkpoint of step {position['env_steps']} in {where} "
+                                   f"could not be written ({_reason(error)})") from None
+
+
+def _reason(error: Exception) -> str:
+    """The operating system's words for a failed write: OSError's, or those of the
+    `[os_error_code='N']` that tensorstore's errors end with; else the error's first line."""
+    if isinstance(error, OSError) and error.strerror:
+        return error.strerror
+    code = re.search(r"os_error_code='(\d+)'", str(error))
+    return os.strerror(int(code.group(1))) if code else str(error).splitlines()[0][:200]
+
+
+def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
+    """Saves the training state and the host loop's `position` (environment steps, chunks done,
+    clocks) as checkpoint step position["env_steps"]."""
+    _write(run_dir, *_stored(runner), position)
+
+
+def _room_for_copy(tree) -> bool:
+    """Whether every device holding part of `tree` has free memory for twice that part: a copy,
+    and as much again left for the next chunk. True where the backend reports no memory limit
+    (the CPU, whose device memory is the host's)."""
+    need = collections.Counter()
+    for leaf in jax.tree_util.tree_leaves(tree):
+        if not isinstance(leaf, jax.Array):
+            continue  # host memory
+        shard = leaf.nbytes * math.prod(leaf.sharding.shard_shape(leaf.shape)) // max(
+            1, math.prod(leaf.shape))
+        for device in leaf.sharding.addressable_devices:
+            need[device] += shard
+    for device, nbytes in need.items():
+        stats = device.memory_stats() or {}
+        if "bytes_limit" in stats and stats["bytes_limit"] - stats["bytes_in_use"] < 2 * nbytes:
+            return False
+    return True
+
+
+def _on_host(tree) -> bool:
+    """Whether every device array of `tree` lives on CPU devices, whose memory is the host's:
+    fetching it there (`jax.device_get`) is a view, not a copy."""
+    return all(device.platform == "cpu" for leaf in jax.tree_util.tree_leaves(tree)
+               if isinstance(leaf, jax.Array) for device in leaf.sharding.device_set)
+
+
+class CheckpointWriter(BackgroundWrites):
+    """`save_checkpoint` off the training's critical path. `save(runner, position)` only queues
+    a copy of the state in new device buffers (`jax.device_put(..., may_alias=False)`, which
+    compiles nothing; the next chunk may then take over the state's own) and returns; the
+    background thread copies it to host memory and writes it while the device trains on. When
+    saves come faster than writes, the thread writes the newest state saved and skips the older
+    ones waiting. A device without room for the copy (`_room_for_copy`) gets none: `save` then
+    waits for the writes under way, whose copies it frees, and fetches the state to host memory
+    in line. (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run;
+    copying to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.) A state on
+    the CPU is always fetched in line: there the fetch is a view, and the copy the checkpoint
+    keeps holds the filled replay slots only, where a device copy would hold every slot
+    (`sac_jax.memory`). A write that fails raises `CheckpointWriteError` from the next `save`
+    or from `close`.
+    """
+
+    def __init__(self, run_dir: str):
+        super().__init__()
+        self._run_dir = run_dir
+        self._lock = threading.Lock()
+        self._newest: Optional[Callable[[], None]] = None
+
+    def _write_newest(self) -> None:
+        with self._lock:
+            write, self._newest = self._newest, None
+        if write is not None:
+            write()
+
+    def save(self, runner: RunnerState, position: dict) -> None:
+        position = copy.deepcopy(position)
+        if not _on_host(runner) and _room_for_copy(runner):
+            state = jax.device_put(runner, may_alias=False)
+            write = lambda: save_checkpoint(self._run_dir, state, position)
+        else:
+            self._collect(wait=True)
+            leaves, filled = _stored(runner)
+            write = lambda: _write(self._run_dir, leaves, filled, position)
+        with self._lock:
+            self._newest = write
+        self.submit(self._write_newest)
+
+
+def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = False
+                    ) -> Tuple[SACConfig, RunInfo, RunnerState, dict]:
+    """(config, run info, training state, position) of the run directory's checkpoint of
+    environment step `step` (default: the newest); `RunDirError` or its subclass
+    `checkpoint.CheckpointError` says what is wrong. A damaged newest checkpoint is refused,
+    and the message names an intact earlier step, if any, to load explicitly. A run
+    directory of an earlier sac-jax (`legacy_checkpoint`) is read too; one whose state kept
+    no delivered actor is refused unless `earlier`: then its state comes with `delivered`
+    and `stopped` None."""
+    config, info = read_config(run_dir)
+    template = state_template(config, info.seeds, info.settings)
+    legacy = os.path.join(run_dir, legacy_checkpoint.FILE)
+
+    def stored(meta):
+        filled = meta["buffer_filled"]
+        if isinstance(filled, bool) or not isinstance(filled, int) or not (
+                0 <= filled <= config.buffer_size):
+            raise ValueError(f"buffer_filled={filled!r} outside [0, {config.buffer_size}]")
+        if meta.get("format") == 2:  # a legacy file without the delivered actor
+            if not earlier:
+                raise checkpoint.CheckpointError(
+                    f"checkpoint {legacy}: written by an earlier sac-jax (format 2) that kept no "
+                    "delivered policy; it cannot be resumed, train anew")
+            return _buffer_filled_to(template.replace(delivered=None, stopped=None), filled)
+        return _buffer_filled_to(template, filled)
+
+    if not os.path.isdir(directory(run_dir)) and os.path.exists(legacy):
+        runner, meta = legacy_checkpoint.load(legacy, stored)
+        return config, info, _padded(runner, config.buffer_size), meta["position"]
+    try:
+        runner, meta, _ = checkpoint.load(directory(run_dir), stored, step)
+    except checkpoint.CheckpointError as error:
+        intact = _intact_before(run_dir, stored) if step is None else None
+        if intact is None:
+            raise
+        raise checkpoint.CheckpointError(
+            f"{error}; the checkpoint of step {intact} before it is intact: load that step "
+            "explicitly (scripts/train.py --resume-step)") from None
+    return config, info, _padded(runner, config.buffer_size), meta["position"]
+
+
+def _intact_before(run_dir: str, template) -> Optional[int]:
+    """The newest step, short of the newest, that loads without error; None if none does."""
+    for step in reversed(saved_steps(run_dir)[:-1]):
+        try:
+            checkpoint.load(directory(run_dir), template, step)
+            return step
+        except checkpoint.CheckpointError:
+            continue
+    return None
+
+
+def _padded(runner: RunnerState, capacity: int) -> RunnerState:
+    """`runner` with its replay arrays zero-padded back to `capacity` slots."""
+    pad = lambda x: np.concatenate(
+        [x, np.zeros((x.shape[0], capacity - x.shape[1]) + x.shape[2:], x.dtype)], axis=1)
+    data = jax.tree_util.tree_map(pad, runner.buffer.data)
+    return runner.replace(buffer=runner.buffer.replace(data=data))
