@@ -2,7 +2,7 @@
 slots are stored, saving at a new fill level compiles nothing, the background writer stores
 the state as it was when asked without holding up the caller, writing the newest of the states
 waiting, and a checkpoint whose metadata does not fit is refused; the TensorBoard writer
-imports no torch."""
+imports no torch; write_file leaves a file whole or absent, and no temporary file."""
 
 import logging
 import os
@@ -220,3 +220,26 @@ def test_resume_from_a_damaged_checkpoint_ends_with_one_line_and_exit_2(run, tmp
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"error: checkpoint {damaged}") and "damaged" in err, err
     assert "\n" not in err
+
+
+@pytest.mark.parametrize("replace, final_step", [(True, "replace"), (False, "link")])
+def test_write_file_is_whole_or_absent(tmp_path, monkeypatch, replace, final_step):
+    """`write_file` puts the bytes at `path` whole; a write that fails at the last step (the
+    temporary file complete) leaves no temporary file; without `replace` an existing file is
+    kept."""
+    path = str(tmp_path / "file.bin")
+    run_dir.write_file(path, b"first", replace=replace)
+    assert open(path, "rb").read() == b"first" and os.listdir(tmp_path) == ["file.bin"]
+    if not replace:
+        with pytest.raises(FileExistsError):
+            run_dir.write_file(path, b"second", replace=False)
+        assert open(path, "rb").read() == b"first" and os.listdir(tmp_path) == ["file.bin"]
+    os.remove(path)
+
+    def full_disk(*args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, final_step, full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        run_dir.write_file(path, b"third", replace=replace)
+    assert os.listdir(tmp_path) == []
