@@ -57,12 +57,22 @@ class RunInfo:
         return dict(info, settings=self.settings) if self.settings else info
 
 
-def write_file(path: str, data: bytes) -> None:
-    """Writes `data` to `path` under a temporary name, then renames it: whole or absent."""
+def write_file(path: str, data: bytes, replace: bool = True) -> None:
+    """Writes `data` to `path` under a temporary name in the same directory, then renames it:
+    whole or absent. Without `replace` an existing `path` is kept (FileExistsError, even if it
+    appeared during the write). On an OSError (a missing or unwritable directory, a full disk)
+    no temporary file is left."""
     tmp = f"{path}.tmp-{os.getpid()}"
-    with open(tmp, "wb") as f:
-        f.write(data)
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+        if replace:
+            os.replace(tmp, path)
+        else:
+            os.link(tmp, path)  # fails if `path` exists: never overwrites
+    finally:
+        if os.path.lexists(tmp):
+            os.remove(tmp)
 
 
 def write_json(path: str, obj) -> None:

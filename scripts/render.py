@@ -16,8 +16,9 @@ default (fps = 1 / dt):
     Pendulum-v1          matplotlib (the pendulum rod, θ = 0 upright)
 The file is written under a temporary name in the same directory and renamed; an existing file
 is kept unless `--force`. Bad input (run directory, checkpoint, seed, values, an existing
-output) ends with one line on stderr and exit 2; a missing library or OpenGL backend with one
-line and exit 1.
+output, an output whose directory is missing or not writable, checked before anything is
+compiled and again at the write) ends with one line on stderr and exit 2, leaving no file
+behind; a missing library or OpenGL backend with one line and exit 1.
 """
 
 from __future__ import annotations
@@ -233,24 +234,29 @@ def _video_writer_missing(extension: str) -> bool:
 
 
 def write_video(path: str, frames: np.ndarray, fps: int, replace: bool = False) -> None:
-    """Writes frames (T, H, W, 3) uint8 to `path` (.gif looping, or .mp4) through a temporary
-    file in the same directory, moved to `path` once complete; an existing `path` is replaced
-    only with `replace` (else FileExistsError, and it is left as it was)."""
+    """Writes frames (T, H, W, 3) uint8 to `path` (.gif looping, or .mp4), encoded in memory
+    and written by `run_dir.write_file`: whole or absent, no temporary file left on an OSError
+    (raised as is); an existing `path` is replaced only with `replace` (else FileExistsError,
+    and it is left as it was)."""
     import imageio.v3 as iio
 
     extension = os.path.splitext(path)[1].lower()
     options = ({"duration": 1000.0 / fps, "loop": 0} if extension == ".gif" else {"fps": fps})
-    directory, name = os.path.split(os.path.abspath(path))
-    tmp = os.path.join(directory, f".{name}.tmp-{os.getpid()}{extension}")
-    try:
-        iio.imwrite(tmp, frames, extension=extension, **options)
-        if replace:
-            os.replace(tmp, path)
-        else:
-            os.link(tmp, path)  # fails if `path` appeared meanwhile: never overwrites
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    data = iio.imwrite("<bytes>", frames, extension=extension, **options)
+    run_dir.write_file(path, data, replace=replace)
+
+
+def _unwritable(out: str) -> Optional[str]:
+    """Why a file cannot be created at `out` (its directory is missing, not a directory, or
+    not writable to this process), or None."""
+    directory = os.path.dirname(os.path.abspath(out))
+    if not os.path.exists(directory):
+        return f"no such directory {directory}"
+    if not os.path.isdir(directory):
+        return f"{directory} is not a directory"
+    if not os.access(directory, os.W_OK | os.X_OK):
+        return f"directory {directory} is not writable (permission denied)"
+    return None
 
 
 def _check_output(out: str, force: bool) -> None:
@@ -264,8 +270,9 @@ def _check_output(out: str, force: bool) -> None:
         raise ValueError(f"--out={out}: already exists; use --force to replace it")
     if os.path.isdir(out):
         raise ValueError(f"--out={out}: is a directory")
-    if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
-        raise ValueError(f"--out={out}: no such directory")
+    reason = _unwritable(out)
+    if reason:
+        raise ValueError(f"--out={out}: cannot be written: {reason}")
     if _video_writer_missing(extension):
         raise MissingDependency(f"--out={out}: writing MP4 needs imageio-ffmpeg (pip install "
                                 "imageio-ffmpeg) or PyAV; or write a .gif")
@@ -305,6 +312,9 @@ def main(argv=None) -> int:
         print(f"error: --out={out}: appeared while rendering; kept it (use --force to replace "
               "it)", file=sys.stderr)
         return 2
+    except OSError as error:  # e.g. the directory went away or became read-only meanwhile
+        reason = _unwritable(out) or error.strerror or type(error).__name__
+        return fail(ValueError(f"--out={out}: cannot be written: {reason}"), 2)
     print(f"wrote {out}: {len(frames)} frames of {args.width}x{args.height} at {fps} fps, "
           f"{length} steps of {policy.config.env} (seed {args.seed}), return {total:.1f}")
     return 0
