@@ -5,7 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import os
-import sys
+import time
 from typing import Dict
 
 import numpy as np
@@ -31,38 +31,22 @@ def write_summary(run_dir: str, summary: dict) -> None:
     write_json(os.path.join(run_dir, "summary.json"), summary)
 
 
-def _summary_writer_class():
-    """tensorboardX's `SummaryWriter`, imported without importing torch. tensorboardX's writer
-    module imports torch when it is installed, only to accept torch tensors, which scalars do
-    not need: 2.2 s of every run on the CPU and 3-5 s on a GPU host with torch. A torch the
-    process has already imported is used as it is."""
-    if "torch" in sys.modules or "tensorboardX" in sys.modules:
-        from tensorboardX import SummaryWriter
-        return SummaryWriter
-    sys.modules["torch"] = None  # `import torch` raises ImportError while this is set
-    try:
-        from tensorboardX import SummaryWriter
-    finally:
-        del sys.modules["torch"]
-    return SummaryWriter
-
-
 class TensorBoard(BackgroundWrites):
     """Scalars of each evaluation point: every metric's mean over seeds under `mean/`, and each
-    seed's evaluation return under `eval_return/seed_<i>`, written on the background thread
-    (one scalar per seed: 28 ms a point for 256 seeds on the H100's host, which the device
-    would otherwise wait for)."""
+    seed's evaluation return under `eval_return/seed_<i>`, one event per point, written on the
+    background thread (one scalar per seed: 28 ms a point for 256 seeds on the H100's host,
+    which the device would otherwise wait for). The writer is the `tensorboard` package's own
+    event file writer, which imports neither TensorFlow nor torch (tensorboardX's imports
+    torch where it is installed: 2.2 s of every run on the CPU)."""
 
     def __init__(self, run_dir: str):
         super().__init__()
-        self._writer = _summary_writer_class()(os.path.join(run_dir, "tensorboard"))
+        from tensorboard.summary.writer.event_file_writer import EventFileWriter
+
+        self._writer = EventFileWriter(os.path.join(run_dir, "tensorboard"))
 
     def _write(self, step: int, means: Dict[str, float], eval_returns: np.ndarray) -> None:
-        for name, value in means.items():
-            if name != "env_steps" and np.isfinite(value):
-                self._writer.add_scalar(f"mean/{name}", value, step)
-        for s, value in enumerate(eval_returns):
-            self._writer.add_scalar(f"eval_return/seed_{s}", float(value), step)
+        self._writer.add_event(point_event(step, means, eval_returns, time.time()))
         self._writer.flush()
 
     def add_point(self, step: int, means: Dict[str, float], eval_returns) -> None:
@@ -73,3 +57,17 @@ class TensorBoard(BackgroundWrites):
             super().close()
         finally:
             self._writer.close()
+
+
+def point_event(step: int, means: Dict[str, float], eval_returns: np.ndarray,
+                wall_time: float):
+    """The TensorBoard `Event` of one evaluation point: a scalar `mean/<name>` for every finite
+    mean but the step itself, and `eval_return/seed_<i>` for each seed."""
+    from tensorboard.compat.proto.event_pb2 import Event
+    from tensorboard.compat.proto.summary_pb2 import Summary
+
+    values = [Summary.Value(tag=f"mean/{name}", simple_value=value)
+              for name, value in means.items() if name != "env_steps" and np.isfinite(value)]
+    values += [Summary.Value(tag=f"eval_return/seed_{s}", simple_value=float(value))
+               for s, value in enumerate(eval_returns)]
+    return Event(wall_time=wall_time, step=step, summary=Summary(value=values))

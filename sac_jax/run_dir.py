@@ -7,7 +7,7 @@
     metrics.csv        one row per evaluation point and seed
     summary.json       final figures (`sac_jax.run.RunResult.summary`) and the run's status
     curves.png         evaluation return vs environment steps: mean over seeds, min-max band
-    tensorboard/       TensorBoard event files (tensorboardX)
+    tensorboard/       TensorBoard event files (the `tensorboard` package's writer)
 
 The directory is created under a temporary name and renamed, so an existing directory is never
 written into by a new run; every later file is written to a temporary name and renamed.

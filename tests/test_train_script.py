@@ -171,18 +171,22 @@ def test_a_finished_run_directory_holds_every_output(runs):
     assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
 
 
-def _scalars(event_dir, tag):
-    """(step, value) of `tag` in a TensorBoard event file, read as TFRecords: a little-endian
-    uint64 length, its 4-byte CRC, the serialized Event, its 4-byte CRC."""
-    from tensorboardX.proto import event_pb2
-    (name,) = os.listdir(event_dir)
-    data, found, at = open(os.path.join(event_dir, name), "rb").read(), [], 0
-    while at < len(data):
-        length = int.from_bytes(data[at:at + 8], "little")
-        event = event_pb2.Event.FromString(data[at + 12:at + 12 + length])
-        found += [(event.step, v.simple_value) for v in event.summary.value if v.tag == tag]
-        at += 16 + length
+def tensorboard_scalars(event_dir):
+    """[(tag, step, value)] of every scalar in the TensorBoard event files of `event_dir`, in
+    file-name (creation) order and then as written, duplicates kept: read with TensorBoard's
+    own loader, as stored (its accumulator would purge re-written steps)."""
+    from tensorboard.backend.event_processing.event_file_loader import LegacyEventFileLoader
+
+    found = []
+    for name in sorted(os.listdir(event_dir)):
+        for event in LegacyEventFileLoader(os.path.join(event_dir, name)).Load():
+            found += [(v.tag, event.step, v.simple_value) for v in event.summary.value]
     return found
+
+
+def _scalars(event_dir, tag):
+    """(step, value) of `tag` in the TensorBoard event files of `event_dir`."""
+    return [(step, value) for name, step, value in tensorboard_scalars(event_dir) if name == tag]
 
 
 def test_tensorboard_events_hold_every_evaluation_point(runs):
