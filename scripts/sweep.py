@@ -56,7 +56,8 @@ from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa:
                          run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
+from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
+                         run_training)
 
 LOSSES = ("critic_loss", "actor_loss", "alpha_loss", "value_loss", "alpha")
 
@@ -247,7 +248,8 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
     print(f"program {i + 1}/{count} ({'resuming, ' if resume else ''}{swept}): "
           f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs, "
           f"{program.config.run_steps} steps each; {fits} -> {path}", flush=True)
-    tensorboard = metric_writers.TensorBoard(path)
+    history = evaluation_points(program.config, resume[0]) if resume else []
+    tensorboard = metric_writers.TensorBoard(path, history)
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, runs, elapsed), flush=True)

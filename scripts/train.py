@@ -39,7 +39,8 @@ import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import memory, metric_writers, run_dir  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
+from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
+                         run_training)
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, fail, parse_with_preset, progress_line,
                          run_main, write_results)
@@ -166,7 +167,8 @@ def main(argv=None) -> int:
     print(f"{'resuming' if resume else 'preset'} {info['preset']} on {config.env}: {seeds} "
           f"seed(s), {budget}, {config.num_envs} envs, {config.updates_per_step} "
           f"updates/iteration; {fits} -> {out}", flush=True)
-    tensorboard = metric_writers.TensorBoard(out)
+    history = evaluation_points(config, resume[0]) if resume else []  # the points done
+    tensorboard = metric_writers.TensorBoard(out, history)
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, info.get("runs", seeds), elapsed), flush=True)

@@ -9,6 +9,8 @@ import json
 import math
 import os
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -17,7 +19,9 @@ import envs
 import sac_jax
 from sac_jax import run_dir
 from scripts import train as train_script
+from tests.killed_run import tensorboard_steps
 from tests.signals import interrupted_main
+from tests.subprocess_json import ROOT
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -200,6 +204,41 @@ def test_tensorboard_events_hold_every_evaluation_point(runs):
                                                "mean/solved")]
     delivered = np.array([float(r["delivered_return"]) for r in _metrics(runs["whole"])])
     assert solved == list((delivered >= envs.spec("Pendulum-v1").solved_return).astype(float))
+
+
+def _killed(argv, step: int) -> subprocess.CompletedProcess:
+    """scripts/train.py `argv` in a process of its own, SIGKILLed at the checkpoint of the
+    evaluation point at `step` once TensorBoard holds that point (tests/killed_run.py)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        filter(None, [ROOT, os.environ.get("PYTHONPATH")])))
+    return subprocess.run([sys.executable, "-m", "tests.killed_run", str(step), *argv],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+
+
+def _last_checkpointed_step(out) -> int:
+    return max(map(int, run_dir.load_checkpoint(out)[3]["walls"]))
+
+
+def test_each_point_is_in_tensorboard_once_after_kills_and_resumes(runs, tmp_path):
+    """SIGKILLed twice, each time after TensorBoard wrote a point whose checkpoint was not
+    saved yet (so the resumed run computes the point again), then resumed to the end: every
+    (tag, step) is in the event files exactly once, with the uninterrupted run's value."""
+    out = str(tmp_path / "killed")
+    for argv, step in ((RUN + ["--out", out], 3000), (["--resume", out], 4000)):
+        killed = _killed(argv, step)
+        assert killed.returncode == -9, killed.stderr[-3000:]
+        assert step in tensorboard_steps(os.path.join(out, "tensorboard"))
+        assert _last_checkpointed_step(out) == step - 1000  # the point will be computed again
+    assert train_script.main(["--resume", out]) == 0
+    scalars = tensorboard_scalars(os.path.join(out, "tensorboard"))
+    keys = [(tag, step) for tag, step, _ in scalars]
+    assert len(keys) == len(set(keys)), sorted(k for k in keys if keys.count(k) > 1)
+    whole = tensorboard_scalars(os.path.join(runs["whole"], "tensorboard"))
+    assert {tag for tag, _, _ in whole} >= {"mean/eval_return", "mean/stopped",
+                                            "eval_return/seed_0"}
+    assert sorted(scalars) == sorted(whole)  # bit for bit: a resumed run is the same run
+    assert [(s, v) for tag, s, v in sorted(scalars) if tag == "eval_return/seed_0"] == [
+        (int(r["env_steps"]), np.float32(r["eval_return"])) for r in _metrics(out)]
 
 
 def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
