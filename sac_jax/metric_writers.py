@@ -102,15 +102,21 @@ def rebuild(directory: str, history: Sequence[Point]) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
+def point_scalars(means: Dict[str, float], eval_returns: np.ndarray) -> Dict[str, float]:
+    """The scalars of one evaluation point, by tag: `mean/<name>` for every finite mean but
+    the step itself, and `eval_return/seed_<i>` for each seed (TensorBoard's and W&B's)."""
+    scalars = {f"mean/{name}": float(value) for name, value in means.items()
+               if name != "env_steps" and np.isfinite(value)}
+    scalars.update({f"eval_return/seed_{s}": float(value) for s, value in enumerate(eval_returns)})
+    return scalars
+
+
 def point_event(step: int, means: Dict[str, float], eval_returns: np.ndarray,
                 wall_time: float):
-    """The TensorBoard `Event` of one evaluation point: a scalar `mean/<name>` for every finite
-    mean but the step itself, and `eval_return/seed_<i>` for each seed."""
+    """The TensorBoard `Event` of one evaluation point: its `point_scalars`."""
     from tensorboard.compat.proto.event_pb2 import Event
     from tensorboard.compat.proto.summary_pb2 import Summary
 
-    values = [Summary.Value(tag=f"mean/{name}", simple_value=value)
-              for name, value in means.items() if name != "env_steps" and np.isfinite(value)]
-    values += [Summary.Value(tag=f"eval_return/seed_{s}", simple_value=float(value))
-               for s, value in enumerate(eval_returns)]
+    values = [Summary.Value(tag=tag, simple_value=value)
+              for tag, value in point_scalars(means, eval_returns).items()]
     return Event(wall_time=wall_time, step=step, summary=Summary(value=values))

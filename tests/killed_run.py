@@ -1,11 +1,12 @@
 """scripts/train.py, killed by SIGKILL at the checkpoint of an evaluation point, once that point
 is in TensorBoard's event files: the window in which a resumed run computes again a point that
-TensorBoard already holds (the checkpoint on disk is the previous point's).
+TensorBoard already holds (the checkpoint on disk is the previous point's). W&B's local log of
+a tracked run holds what W&B wrote by then (it buffers its writes: a point may be there or not).
 
     python -m tests.killed_run STEP ARGS...     # ARGS: scripts/train.py's command line
 
 Run it in a process of its own (tests/test_train_script.py); its exit status is -9 when it was
-killed there, 3 if the point never reached TensorBoard's files, and scripts/train.py's own if
+killed there, 3 if the point never reached the files, and scripts/train.py's own if
 the run never came to STEP.
 """
 
@@ -16,7 +17,7 @@ import signal
 import sys
 import time
 
-from sac_jax import run_dir
+from sac_jax import run_dir, tracking, wandb_records
 from scripts import train as train_script
 
 
@@ -27,6 +28,16 @@ def tensorboard_steps(directory: str) -> set:
     names = os.listdir(directory) if os.path.isdir(directory) else []
     return {event.step for name in names
             for event in LegacyEventFileLoader(os.path.join(directory, name)).Load()}
+
+
+def wandb_steps(run_dir_path: str) -> set:
+    """The steps in the local W&B logs of the run directory's W&B run (none if untracked)."""
+    tracked = tracking.load_settings(run_dir_path)
+    if tracked is None:
+        return set()
+    directory = os.environ.get("WANDB_DIR") or run_dir_path
+    return {step for path in wandb_records.logs(directory, tracked["id"])
+            for step in wandb_records.steps(path)}
 
 
 def kill_at_checkpoint(step: int, timeout_s: float = 60.0) -> None:

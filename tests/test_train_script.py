@@ -19,7 +19,8 @@ import envs
 import sac_jax
 from sac_jax import run_dir
 from scripts import train as train_script
-from tests.killed_run import tensorboard_steps
+from sac_jax import tracking, wandb_records
+from tests.killed_run import tensorboard_steps, wandb_steps
 from tests.signals import interrupted_main
 from tests.subprocess_json import ROOT
 
@@ -219,15 +220,29 @@ def _last_checkpointed_step(out) -> int:
     return max(map(int, run_dir.load_checkpoint(out)[3]["walls"]))
 
 
-def test_each_point_is_in_tensorboard_once_after_kills_and_resumes(runs, tmp_path):
-    """SIGKILLed twice, each time after TensorBoard wrote a point whose checkpoint was not
-    saved yet (so the resumed run computes the point again), then resumed to the end: every
-    (tag, step) is in the event files exactly once, with the uninterrupted run's value."""
+@pytest.fixture
+def offline_wandb(tmp_path, monkeypatch):
+    """W&B offline (never the network), quiet, its files under tmp_path/wandb-dir."""
+    monkeypatch.setenv("WANDB_MODE", "offline")
+    monkeypatch.setenv("WANDB_SILENT", "true")
+    monkeypatch.setenv("WANDB_DIR", str(tmp_path / "wandb-dir"))
+    os.makedirs(tmp_path / "wandb-dir")
+    return str(tmp_path / "wandb-dir")
+
+
+def test_each_point_is_logged_once_after_kills_and_resumes(runs, tmp_path, offline_wandb):
+    """A run tracked on W&B (offline), SIGKILLed twice, each time after TensorBoard wrote a
+    point whose checkpoint was not saved yet (so the resumed run computes it again),
+    then resumed to the end: every (tag, step) is in TensorBoard's event files exactly once
+    with the uninterrupted run's value, and W&B's logs (one per process) hold each step once,
+    with the same scalars, and the summary."""
+    pytest.importorskip("wandb")
     out = str(tmp_path / "killed")
-    for argv, step in ((RUN + ["--out", out], 3000), (["--resume", out], 4000)):
+    for argv, step in ((RUN + ["--out", out, "--track"], 3000), (["--resume", out], 4000)):
         killed = _killed(argv, step)
         assert killed.returncode == -9, killed.stderr[-3000:]
         assert step in tensorboard_steps(os.path.join(out, "tensorboard"))
+        print("W&B held after the kill:", sorted(wandb_steps(out)))
         assert _last_checkpointed_step(out) == step - 1000  # the point will be computed again
     assert train_script.main(["--resume", out]) == 0
     scalars = tensorboard_scalars(os.path.join(out, "tensorboard"))
@@ -239,6 +254,19 @@ def test_each_point_is_in_tensorboard_once_after_kills_and_resumes(runs, tmp_pat
     assert sorted(scalars) == sorted(whole)  # bit for bit: a resumed run is the same run
     assert [(s, v) for tag, s, v in sorted(scalars) if tag == "eval_return/seed_0"] == [
         (int(r["env_steps"]), np.float32(r["eval_return"])) for r in _metrics(out)]
+    run_id = tracking.load_settings(out)["id"]
+    logs = wandb_records.logs(offline_wandb, run_id)
+    assert len(logs) == 3  # the two killed processes and the last
+    rows = [row for path in logs for row in wandb_records.history(path)]
+    assert [row["_step"] for row in rows] == [2000, 3000, 4000]
+    for row in rows:
+        logged = {(tag, row["_step"], np.float32(v)) for tag, v in row.items()
+                  if not tag.startswith("_")}
+        assert logged == {s for s in scalars if s[1] == row["_step"]}
+    summary = json.load(open(os.path.join(out, "summary.json")))
+    final = wandb_records.summary(logs[-1])
+    assert final["status"] == "finished" and final["total_steps"] == 4000
+    assert final["delivered_return"] == summary["delivered_return"]
 
 
 def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
@@ -318,3 +346,35 @@ def test_an_unwritable_cache_directory_trains_on_without_it(tmp_path, recwarn):
     assert messages == [f"compilation cache {cache}: not writable (Not a directory); "
                         "compiling without it"], messages
     assert os.path.exists(os.path.join(out, "summary.json"))
+
+
+def test_track_without_wandb_ends_with_one_line_and_writes_nothing(tmp_path, capsys,
+                                                                   monkeypatch):
+    """wandb is an optional extra: where it cannot be imported (as the finder reports here),
+    `--track` says what to install, exit 2, before anything is written."""
+    find_spec = tracking.importlib.util.find_spec
+    monkeypatch.setattr(tracking.importlib.util, "find_spec",
+                        lambda name, *a: None if name == "wandb" else find_spec(name, *a))
+    out = tmp_path / "run"
+    assert train_script.main(["--track", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err == ('error: --track: needs wandb, which is not installed: pip install -e '
+                   '".[track]" (or pip install wandb)\n'), err
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_resumed_tracked_run_logs_the_points_w_and_b_holds_once(tmp_path, offline_wandb):
+    """Stopped by SIGINT at its first point, a tracked run ends its W&B run cleanly, with that
+    point logged; its checkpoint holds the point too, and the resumed run, which starts from
+    the checkpoint's points, logs only the later ones: each step once over the two logs."""
+    pytest.importorskip("wandb")
+    out = str(tmp_path / "tracked")
+    assert interrupted_main(train_script, RUN + ["--out", out, "--track"]) == 130
+    run_id = tracking.load_settings(out)["id"]
+    assert [wandb_records.steps(p) for p in wandb_records.logs(offline_wandb, run_id)] == [
+        [2000]]
+    assert train_script.main(["--resume", out]) == 0
+    logs = wandb_records.logs(offline_wandb, run_id)
+    assert [wandb_records.steps(p) for p in logs] == [[2000], [3000, 4000]]
+    assert wandb_records.summary(logs[0])["status"] == "interrupted"
+    assert wandb_records.summary(logs[1])["status"] == "finished"
