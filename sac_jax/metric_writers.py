@@ -86,6 +86,8 @@ def rebuild(directory: str, history: Sequence[Point]) -> None:
     a kill left, and writes it again."""
     from tensorboard.summary.writer.event_file_writer import EventFileWriter
 
+    if not history and not os.path.exists(directory):
+        return  # a new run: nothing to write or replace
     parent, name = os.path.split(os.path.abspath(directory))
     for left in glob.glob(os.path.join(parent, f".{glob.escape(name)}.*-*")):
         shutil.rmtree(left, ignore_errors=True)  # a killed rebuild's, or this one's last try
