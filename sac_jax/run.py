@@ -19,7 +19,7 @@ import dataclasses
 import functools
 import resource
 import time
-from typing import Callable, Dict, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import jax
 import jax.numpy as jnp
@@ -77,6 +77,44 @@ def _nanmean(values) -> float:
     """Mean of the finite values, NaN if there are none (without numpy's warning)."""
     finite = [v for v in values if np.isfinite(v)]
     return float(np.mean(finite)) if finite else float("nan")
+
+
+def point_means(config: SACConfig, point: Dict[str, np.ndarray]) -> Dict[str, float]:
+    """What `run_training` reports of one evaluation point (`point`: {metric: value per seed},
+    one column of the state's `outputs`): each metric's mean over the seeds that have it;
+    `solved`, for a task with a solved threshold, the fraction of seeds whose delivered
+    actor has reached it; `stopped` the fraction of seeds stopped. A seed stops at the point
+    where its delivered actor reaches `config.stop_at`, and its delivered actor stays fixed
+    from then on, so it is stopped exactly where its delivered return is at least `stop_at`
+    (compared in float32, as the program does): the figures of a point are a function of the
+    point's outputs alone, and can be recomputed from a checkpoint (`evaluation_points`)."""
+    means = {k: _nanmean(v) for k, v in point.items()}
+    delivered = np.asarray(point["delivered_return"], np.float32)
+    threshold = envs.spec(config.env).solved_return
+    if threshold is not None:
+        means["solved"] = float(np.mean(delivered >= threshold))
+    means["stopped"] = (float(np.mean(delivered >= np.float32(config.stop_at)))
+                        if config.stop_when_solved else 0.0)
+    return means
+
+
+def points_done(config: SACConfig, iteration: int) -> int:
+    """Evaluation points a state at `iteration` iterations has done."""
+    return max(0, (int(iteration) - config.prefill_iterations) // config.iterations_per_eval)
+
+
+def evaluation_points(config: SACConfig, runner: RunnerState
+                      ) -> List[Tuple[int, Dict[str, float], np.ndarray]]:
+    """[(env_steps, `point_means`, each seed's evaluation return)] of every evaluation point
+    the state `runner` (e.g. a checkpoint's) has done, in order: what `on_point` was called
+    with, for a writer rebuilding its record of a resumed run."""
+    outputs = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
+    points = []
+    for p in range(points_done(config, jax.device_get(runner.iteration))):
+        point = {k: v[:, p] for k, v in outputs.items()}
+        points.append((int(point["env_steps"][0]), point_means(config, point),
+                       point["eval_return"]))
+    return points
 
 
 def solved_at(returns: np.ndarray, env_steps: np.ndarray, threshold: float) -> Optional[int]:
@@ -185,7 +223,6 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     train on, and the summary's `non_finite_at_step` says where each seed's state became
     non-finite (its delivered actor stays the last one confirmed before).
     """
-    threshold = envs.spec(config.env).solved_return
     configs, values = hyperparams.sweep(config, settings, seeds)
     config, seed_keys, seeds = configs[0], seeds, seeds * len(configs)
     if check_memory:
@@ -209,19 +246,18 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     start = time.perf_counter() - position["run_s"]
     status, message = FINISHED, ""
 
-    def points_done(state) -> int:
+    def points_reached(state) -> int:
         _wait(state.iteration, should_stop, stop_grace_s)
-        iterations = int(state.iteration)
-        return max(0, (iterations - config.prefill_iterations) // config.iterations_per_eval)
+        return points_done(config, state.iteration)
 
     def all_stopped(state) -> bool:
         return config.stop_when_solved and bool(np.all(jax.device_get(state.stopped)))
 
-    points = points_done(runner)
+    points = points_reached(runner)
     while position["chunks_done"] < parts.num_chunks and not all_stopped(runner):
         runner = chunk(runner)
         position["chunks_done"] += 1
-        new_points = points_done(runner)
+        new_points = points_reached(runner)
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position["run_s"] = host_start - start
         flags = finite(runner.sac)
@@ -245,11 +281,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
             step = int(point["env_steps"][0])
             position["walls"][str(step)] = position["run_s"]
             if on_point is not None:
-                means = {k: _nanmean(v) for k, v in point.items()}
-                if threshold is not None:
-                    means["solved"] = float(np.mean(point["delivered_return"] >= threshold))
-                means["stopped"] = float(np.mean(jax.device_get(runner.stopped)))
-                on_point(step, means, np.asarray(point["eval_return"]), position["run_s"])
+                on_point(step, point_means(config, point), np.asarray(point["eval_return"]),
+                         position["run_s"])
         stop = should_stop is not None and should_stop()
         position["env_steps"] = int(runner.iteration) * config.num_envs
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period

@@ -8,7 +8,7 @@
                        two, in orbax's format (`sac_jax.run_checkpoint`, `sac_jax.checkpoint`)
     metrics.csv        one row per evaluation point and seed       (`sac_jax.metric_writers`)
     summary.json       final figures (`sac_jax.run.RunResult.summary`) and the run's status
-    tensorboard/       TensorBoard event files, live
+    tensorboard/       TensorBoard event files (the `tensorboard` package's writer), live
     curves.png         evaluation return vs environment steps      (`sac_jax.plots`)
 
 This module makes the directory and reads back what defines the run; the modules named above

@@ -22,7 +22,8 @@ loads its runs, setting-major), results.csv (one row per setting and seed: its v
 delivered actor's confirmed return, when it was first solved, the last evaluation and the last
 period's losses), sweep.png (delivered return against each swept field, and each setting's
 learning curve), and prints the best setting (highest mean delivered return over its seeds,
-then earliest mean solved step) as a ready scripts/train.py command line.
+then earliest mean solved step) as a ready scripts/train.py command line. With `--track`, each
+program directory is also a W&B run of its own (id in its wandb.json), as scripts/train.py's.
 Ctrl-C or SIGTERM stops after the current chunk, saves, and exits with 130 or 143; `--resume`
 continues the sweep. Bad input (an unknown or non-numeric field, an empty or invalid value, a
 program that cannot fit in memory) ends with one line on stderr and exit 2, nothing written.
@@ -45,18 +46,19 @@ import shutil  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
 import typing  # noqa: E402
-from typing import Annotated, Dict, List, Optional, Sequence, Tuple  # noqa: E402
+from typing import Annotated, Dict, List, Literal, Optional, Sequence, Tuple  # noqa: E402
 
 import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
-from sac_jax import hyperparams, memory, metric_writers, run_checkpoint, run_dir  # noqa: E402
+from sac_jax import hyperparams, memory, metric_writers, run_checkpoint, run_dir, tracking  # noqa: E402
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, fail, parse_with_preset, progress_line,
                          run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
+from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
+                         run_training)
 
 LOSSES = ("critic_loss", "actor_loss", "alpha_loss", "value_loss", "alpha")
 
@@ -84,6 +86,17 @@ class SweepArgs:
     """Compilation cache directory (default $JAX_COMPILATION_CACHE_DIR or ~/.cache/sac-jax/jax)."""
     memory_check: bool = True
     """Refuse, before anything is written or compiled, a program that cannot fit in memory."""
+    track: bool = False
+    """Also log to Weights & Biases (needs `pip install -e ".[track]"`): one W&B run per
+    program directory (named <name>-program<i>), as scripts/train.py logs a run."""
+    wandb_project: str = "sac-jax"
+    """W&B project (with --track)."""
+    wandb_entity: Optional[str] = None
+    """W&B entity, a user or team (with --track; default: W&B's default entity)."""
+    wandb_name: Optional[str] = None
+    """Prefix of the W&B run names (with --track; default: the sweep directory's name)."""
+    wandb_mode: Optional[Literal["online", "offline"]] = None
+    """W&B mode (with --track; default $WANDB_MODE, else online)."""
     config: Annotated[SACConfig, tyro.conf.OmitArgPrefixes] = PRESETS[DEFAULT_PRESET]
 
     def __post_init__(self):
@@ -241,17 +254,28 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
         shutil.rmtree(path, ignore_errors=True)
         run_dir.create(path, program.config, sweep["preset"], seeds, sweep["seed"],
                        program.settings)
+        if sweep.get("track"):
+            track = sweep["track"]
+            name = f"{track['name'] or os.path.basename(os.path.abspath(out))}-program{i}"
+            tracking.save_settings(path, tracking.settings(
+                track["project"], track["entity"], name, track["mode"]))
     swept = (", ".join(f"{k}={_span(v)}" for k, v in program.settings.items())
              if program.settings else _describe({k: v for k, v in
                                                  sweep["points"][program.indices[0]].items()}))
     print(f"program {i + 1}/{count} ({'resuming, ' if resume else ''}{swept}): "
           f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs, "
           f"{program.config.run_steps} steps each; {fits} -> {path}", flush=True)
-    tensorboard = metric_writers.TensorBoard(path)
+    history = evaluation_points(program.config, resume[0]) if resume else []
+    tensorboard = metric_writers.TensorBoard(path, history)
+    wandb_run = tracking.follow(path, dict(
+        dataclasses.asdict(program.config), preset=sweep["preset"], seeds=seeds,
+        seed=sweep["seed"], settings=program.settings), history)
+    writers = [w for w in (tensorboard, wandb_run) if w is not None]
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, runs, elapsed), flush=True)
-        tensorboard.add_point(step, means, eval_returns)
+        for writer in writers:
+            writer.add_point(step, means, eval_returns)
 
     checkpoints = run_checkpoint.CheckpointWriter(path)
     try:
@@ -264,6 +288,9 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
         tensorboard.close()
         checkpoints.close()
     write_results(path, program.config, sweep["preset"], result)
+    if wandb_run is not None:
+        code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
+        wandb_run.finish(dict(result.summary, preset=sweep["preset"]), code)
     return result
 
 
@@ -383,6 +410,11 @@ def main(argv=None) -> int:
                 raise run_dir.RunDirError(f"--out={out}: already exists; choose a new directory")
             sweep = {"preset": args.preset, "seeds": args.seeds, "seed": args.seed,
                      "grid": grid, "config": args.config}
+            if args.track:
+                sweep["track"] = {"project": args.wandb_project, "entity": args.wandb_entity,
+                                  "name": args.wandb_name, "mode": args.wandb_mode}
+        if sweep.get("track"):
+            tracking.check_available()
         fits = _memory_lines(args, programs, sweep["seeds"])
         if not args.resume:
             run_dir.create_directory(out, {"sweep.json": dict(

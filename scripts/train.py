@@ -9,8 +9,9 @@
 Prints one progress line per evaluation point (means over seeds: the last actor's and the
 delivered actor's returns; how many seeds' delivered policies are solved, and stopped) and
 writes the run directory (default runs/<preset>-<env>-<time>): config.json, run.json,
-checkpoints/ (at every evaluation, the newest two kept), tensorboard/ (live), and at the end metrics.csv,
-summary.json and curves.png. What the run delivers is each seed's best confirmed actor
+checkpoints/ (at every evaluation, the newest two kept), tensorboard/ (live), and at the end
+metrics.csv, summary.json and curves.png; with --track, wandb.json (the W&B run's id) and W&B's
+files. What the run delivers is each seed's best confirmed actor
 (`sac_jax.selection`), which `sac_jax.load_policy` and scripts/evaluate.py load.
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
 summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s after the first,
@@ -32,7 +33,7 @@ import dataclasses  # noqa: E402
 import os  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
-from typing import Annotated, Optional, Sequence  # noqa: E402
+from typing import Annotated, Literal, Optional, Sequence  # noqa: E402
 
 import tyro  # noqa: E402
 
@@ -40,8 +41,9 @@ import tyro  # noqa: E402
 import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax import memory, metric_writers, run_checkpoint, run_dir  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, run_training  # noqa: E402
+from sac_jax import memory, metric_writers, run_checkpoint, run_dir, tracking  # noqa: E402
+from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
+                         run_training)
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, fail, parse_with_preset, progress_line,
                          run_main, write_results)
@@ -75,6 +77,19 @@ class TrainArgs:
     memory_check: bool = True
     """Refuse, before anything is written or compiled, a run whose peak memory (replay, state
     and a checkpoint's copy: `sac_jax.memory`) exceeds the memory available."""
+    track: bool = False
+    """Also log the run to Weights & Biases (needs `pip install -e ".[track]"`): the
+    TensorBoard scalars at each evaluation point (step = environment steps), the config, the
+    summary; `--resume` continues the same W&B run."""
+    wandb_project: str = "sac-jax"
+    """W&B project (with --track)."""
+    wandb_entity: Optional[str] = None
+    """W&B entity, a user or team (with --track; default: W&B's default entity)."""
+    wandb_name: Optional[str] = None
+    """W&B run name (with --track; default: the run directory's name)."""
+    wandb_mode: Optional[Literal["online", "offline"]] = None
+    """W&B mode (with --track; default $WANDB_MODE, else online); an offline run is uploaded
+    later with `wandb sync`."""
     config: Annotated[SACConfig, tyro.conf.OmitArgPrefixes] = PRESETS[DEFAULT_PRESET]
 
     def __post_init__(self):
@@ -104,7 +119,12 @@ def _new_run(args: TrainArgs):
     if os.path.exists(out):
         raise run_dir.RunDirError(f"--out={out}: already exists; choose a new run directory")
     fits = _memory_line(args, args.config, args.seeds)
+    if args.track:
+        tracking.check_available()
     run_dir.create(out, args.config, info.preset, info.seeds, info.seed)
+    if args.track:
+        tracking.save_settings(out, tracking.settings(
+            args.wandb_project, args.wandb_entity, args.wandb_name, args.wandb_mode))
     return args.config, info, out, fits
 
 
@@ -119,6 +139,8 @@ def _resumed_run(args: TrainArgs):
     """(config, run info, run directory, (state, position), memory line) of the run in
     `--resume`."""
     config, info = run_dir.read_config(args.resume)
+    if tracking.load_settings(args.resume) is not None:
+        tracking.check_available()
     fits = _memory_line(args, config, info.runs)
     config, info, state, position = run_checkpoint.load_checkpoint(args.resume, args.resume_step)
     from sac_jax.train import make_train_parts
@@ -173,11 +195,15 @@ def main(argv=None) -> int:
     print(f"{'resuming' if resume else 'preset'} {info.preset} on {config.env}: {seeds} "
           f"seed(s), {budget}, {config.num_envs} envs, {config.updates_per_step} "
           f"updates/iteration; {fits} -> {out}", flush=True)
-    tensorboard = metric_writers.TensorBoard(out)
+    history = evaluation_points(config, resume[0]) if resume else []  # the points done
+    tensorboard = metric_writers.TensorBoard(out, history)
+    wandb_run = tracking.follow(out, dict(dataclasses.asdict(config), **info.to_json()), history)
+    writers = [w for w in (tensorboard, wandb_run) if w is not None]
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, info.runs, elapsed), flush=True)
-        tensorboard.add_point(step, means, eval_returns)
+        for writer in writers:
+            writer.add_point(step, means, eval_returns)
 
     stop = StopRequest()
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
@@ -205,6 +231,9 @@ def main(argv=None) -> int:
         # at once: the device may still run the chunk, which an exiting interpreter awaits
         raise LeaveNow(EXIT_CODES.get(stop.signal, 130))
     write_results(out, config, info.preset, result)
+    code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
+    if wandb_run is not None:
+        wandb_run.finish(dict(result.summary, preset=info.preset), code)
     s = result.summary
     if result.status == FINISHED:
         print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; {_outcome(s)}; wrote "
@@ -213,7 +242,7 @@ def main(argv=None) -> int:
     if result.status == INTERRUPTED:
         print(f"{result.message}; checkpoint saved: continue with --resume {out}",
               file=sys.stderr, flush=True)
-        return EXIT_CODES[stop.signal]
+        return code
     print(f"error: {result.message}; {_kept(out)}", file=sys.stderr, flush=True)
     return 1
 

@@ -105,3 +105,24 @@ def test_one_evaluation_batch_gives_the_same_run():
     for name in ("eval_return", "confirm_return", "delivered_return"):
         np.testing.assert_allclose(merged[1][name], separate[1][name], rtol=1e-4)
     assert np.isfinite(separate[1]["confirm_return"]).any()  # confirmations happened
+
+
+def test_a_checkpoints_points_are_what_the_run_reported():
+    """`evaluation_points` of a run's final state gives every point as `on_point` reported it,
+    `stopped` included, which it derives from the delivered returns: here with seeds stopping
+    at a return between those the run reaches, checked against the state's own flags after
+    every point."""
+    returns = run.run_training(CONFIG, seeds=2).metrics["delivered_return"]
+    config = CONFIG.replace(stop_when_solved=True, stop_return=float(np.median(returns)))
+    reported, flags = [], []
+    result = run.run_training(
+        config, seeds=2, on_point=lambda *point: reported.append(point[:3]),
+        on_checkpoint=lambda runner, _: flags.append(float(np.mean(runner.stopped))))
+    assert [means["stopped"] for _, means, _ in reported] == flags
+    assert 0.0 < flags[-1] and flags[0] < 1.0, flags  # the check can tell counts apart
+    rebuilt = run.evaluation_points(config, result.state)
+    assert len(rebuilt) == len(reported) == result.points
+    for (step, means, returns), (step2, means2, returns2) in zip(rebuilt, reported):
+        assert step == step2 and means.keys() == means2.keys()
+        np.testing.assert_array_equal(list(means.values()), list(means2.values()))
+        np.testing.assert_array_equal(returns, returns2)

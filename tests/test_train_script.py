@@ -9,6 +9,8 @@ import json
 import math
 import os
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -17,10 +19,12 @@ import jax
 
 import envs
 import sac_jax
-from sac_jax import checkpoint, run_checkpoint
+from sac_jax import checkpoint, run_checkpoint, tracking, wandb_records
 from scripts import train as train_script
+from tests.killed_run import tensorboard_steps, wandb_steps
 from tests.saved_runs import damage_checkpoint
 from tests.signals import interrupted_main
+from tests.subprocess_json import ROOT
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -175,18 +179,22 @@ def test_a_finished_run_directory_holds_every_output(runs):
     assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
 
 
-def _scalars(event_dir, tag):
-    """(step, value) of `tag` in a TensorBoard event file, read as TFRecords: a little-endian
-    uint64 length, its 4-byte CRC, the serialized Event, its 4-byte CRC."""
-    from tensorboardX.proto import event_pb2
-    (name,) = os.listdir(event_dir)
-    data, found, at = open(os.path.join(event_dir, name), "rb").read(), [], 0
-    while at < len(data):
-        length = int.from_bytes(data[at:at + 8], "little")
-        event = event_pb2.Event.FromString(data[at + 12:at + 12 + length])
-        found += [(event.step, v.simple_value) for v in event.summary.value if v.tag == tag]
-        at += 16 + length
+def tensorboard_scalars(event_dir):
+    """[(tag, step, value)] of every scalar in the TensorBoard event files of `event_dir`, in
+    file-name (creation) order and then as written, duplicates kept: read with TensorBoard's
+    own loader, as stored (its accumulator would purge re-written steps)."""
+    from tensorboard.backend.event_processing.event_file_loader import LegacyEventFileLoader
+
+    found = []
+    for name in sorted(os.listdir(event_dir)):
+        for event in LegacyEventFileLoader(os.path.join(event_dir, name)).Load():
+            found += [(v.tag, event.step, v.simple_value) for v in event.summary.value]
     return found
+
+
+def _scalars(event_dir, tag):
+    """(step, value) of `tag` in the TensorBoard event files of `event_dir`."""
+    return [(step, value) for name, step, value in tensorboard_scalars(event_dir) if name == tag]
 
 
 def test_tensorboard_events_hold_every_evaluation_point(runs):
@@ -200,6 +208,68 @@ def test_tensorboard_events_hold_every_evaluation_point(runs):
                                                "mean/solved")]
     delivered = np.array([float(r["delivered_return"]) for r in _metrics(runs["whole"])])
     assert solved == list((delivered >= envs.spec("Pendulum-v1").solved_return).astype(float))
+
+
+def _killed(argv, step: int) -> subprocess.CompletedProcess:
+    """scripts/train.py `argv` in a process of its own, SIGKILLed at the checkpoint of the
+    evaluation point at `step` once TensorBoard holds that point (tests/killed_run.py)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        filter(None, [ROOT, os.environ.get("PYTHONPATH")])))
+    return subprocess.run([sys.executable, "-m", "tests.killed_run", str(step), *argv],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+
+
+def _last_checkpointed_step(out) -> int:
+    return max(map(int, run_checkpoint.load_checkpoint(out)[3]["walls"]))
+
+
+@pytest.fixture
+def offline_wandb(tmp_path, monkeypatch):
+    """W&B offline (never the network), quiet, its files under tmp_path/wandb-dir."""
+    monkeypatch.setenv("WANDB_MODE", "offline")
+    monkeypatch.setenv("WANDB_SILENT", "true")
+    monkeypatch.setenv("WANDB_DIR", str(tmp_path / "wandb-dir"))
+    os.makedirs(tmp_path / "wandb-dir")
+    return str(tmp_path / "wandb-dir")
+
+
+def test_each_point_is_logged_once_after_kills_and_resumes(runs, tmp_path, offline_wandb):
+    """A run tracked on W&B (offline), SIGKILLed twice, each time after TensorBoard wrote a
+    point whose checkpoint was not saved yet (so the resumed run computes it again),
+    then resumed to the end: every (tag, step) is in TensorBoard's event files exactly once
+    with the uninterrupted run's value, and W&B's logs (one per process) hold each step once,
+    with the same scalars, and the summary."""
+    pytest.importorskip("wandb")
+    out = str(tmp_path / "killed")
+    for argv, step in ((RUN + ["--out", out, "--track"], 3000), (["--resume", out], 4000)):
+        killed = _killed(argv, step)
+        assert killed.returncode == -9, killed.stderr[-3000:]
+        assert step in tensorboard_steps(os.path.join(out, "tensorboard"))
+        print("W&B held after the kill:", sorted(wandb_steps(out)))
+        assert _last_checkpointed_step(out) == step - 1000  # the point will be computed again
+    assert train_script.main(["--resume", out]) == 0
+    scalars = tensorboard_scalars(os.path.join(out, "tensorboard"))
+    keys = [(tag, step) for tag, step, _ in scalars]
+    assert len(keys) == len(set(keys)), sorted(k for k in keys if keys.count(k) > 1)
+    whole = tensorboard_scalars(os.path.join(runs["whole"], "tensorboard"))
+    assert {tag for tag, _, _ in whole} >= {"mean/eval_return", "mean/stopped",
+                                            "eval_return/seed_0"}
+    assert sorted(scalars) == sorted(whole)  # bit for bit: a resumed run is the same run
+    assert [(s, v) for tag, s, v in sorted(scalars) if tag == "eval_return/seed_0"] == [
+        (int(r["env_steps"]), np.float32(r["eval_return"])) for r in _metrics(out)]
+    run_id = tracking.load_settings(out)["id"]
+    logs = wandb_records.logs(offline_wandb, run_id)
+    assert len(logs) == 3  # the two killed processes and the last
+    rows = [row for path in logs for row in wandb_records.history(path)]
+    assert [row["_step"] for row in rows] == [2000, 3000, 4000]
+    for row in rows:
+        logged = {(tag, row["_step"], np.float32(v)) for tag, v in row.items()
+                  if not tag.startswith("_")}
+        assert logged == {s for s in scalars if s[1] == row["_step"]}
+    summary = json.load(open(os.path.join(out, "summary.json")))
+    final = wandb_records.summary(logs[-1])
+    assert final["status"] == "finished" and final["total_steps"] == 4000
+    assert final["delivered_return"] == summary["delivered_return"]
 
 
 def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
@@ -303,3 +373,35 @@ def test_a_checkpoint_that_cannot_be_written_ends_the_run_in_one_line(tmp_path, 
                    f"2000) is kept: continue with --resume {out}"), err
     assert os.listdir(run_checkpoint.directory(out)) == ["2000"]
     run_checkpoint.load_checkpoint(out)  # whole: it loads
+
+
+def test_track_without_wandb_ends_with_one_line_and_writes_nothing(tmp_path, capsys,
+                                                                   monkeypatch):
+    """wandb is an optional extra: where it cannot be imported (as the finder reports here),
+    `--track` says what to install, exit 2, before anything is written."""
+    find_spec = tracking.importlib.util.find_spec
+    monkeypatch.setattr(tracking.importlib.util, "find_spec",
+                        lambda name, *a: None if name == "wandb" else find_spec(name, *a))
+    out = tmp_path / "run"
+    assert train_script.main(["--track", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err == ('error: --track: needs wandb, which is not installed: pip install -e '
+                   '".[track]" (or pip install wandb)\n'), err
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_resumed_tracked_run_logs_the_points_w_and_b_holds_once(tmp_path, offline_wandb):
+    """Stopped by SIGINT at its first point, a tracked run ends its W&B run cleanly, with that
+    point logged; its checkpoint holds the point too, and the resumed run, which starts from
+    the checkpoint's points, logs only the later ones: each step once over the two logs."""
+    pytest.importorskip("wandb")
+    out = str(tmp_path / "tracked")
+    assert interrupted_main(train_script, RUN + ["--out", out, "--track"]) == 130
+    run_id = tracking.load_settings(out)["id"]
+    assert [wandb_records.steps(p) for p in wandb_records.logs(offline_wandb, run_id)] == [
+        [2000]]
+    assert train_script.main(["--resume", out]) == 0
+    logs = wandb_records.logs(offline_wandb, run_id)
+    assert [wandb_records.steps(p) for p in logs] == [[2000], [3000, 4000]]
+    assert wandb_records.summary(logs[0])["status"] == "interrupted"
+    assert wandb_records.summary(logs[1])["status"] == "finished"
