@@ -128,7 +128,8 @@ def local_config(config: SACConfig, num_devices: int, axis: str = DATA) -> SACCo
     return config.replace(**shares, total_steps=total, data_parallel_axis=axis)
 
 
-DATA_AXES = SEED_AXES.replace(sac=None, delivered=None, stopped=None, hyperparams=None)
+DATA_AXES = SEED_AXES.replace(sac=None, delivered=None, stopped=None, non_finite=None,
+                               hyperparams=None)
 """`jax.vmap` axes of a data-parallel run's state over its D device shares: the learner state
 (every update averages over the axis, so all shares hold the same), the delivered actor and the
 stop flag (selected on evaluation returns averaged over the axis), the traced hyperparameters

@@ -31,7 +31,7 @@ from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import over_seed_axis, seeds_program
 from sac_jax.program_cache import cached_compile
-from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
+from sac_jax.train import SEED_AXES, RunnerState, make_train_parts, non_finite_fields
 
 FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
 
@@ -130,15 +130,21 @@ def _finite_flags(tree):
         lambda x: jnp.all(jnp.isfinite(x), axis=tuple(range(1, x.ndim))), tree)
 
 
-def first_non_finite(flags) -> Optional[str]:
-    """'<quantity> of seed <s>' for the first parameter, optimiser or temperature array of a
-    vmapped `SACState` holding a NaN or an infinity, from its `_finite_flags`; None if all are
-    finite."""
-    for path, ok in jax.tree_util.tree_flatten_with_path(jax.device_get(flags))[0]:
-        if not np.all(ok):
-            name = jax.tree_util.keystr(path, simple=True, separator="/")
-            return f"{name} of seed {int(np.argmin(ok))}"
-    return None
+def first_non_finite(flags, first: Optional[Sequence[Optional[str]]] = None) -> Optional[str]:
+    """'<array> of seed <s>' for the first seed whose vmapped `SACState` holds a NaN or an
+    infinity, from its `_finite_flags`; None if all are finite. The array is the first
+    non-finite one of the field `first[s]` (the field that went non-finite first, from
+    `RunnerState.non_finite`) if given, else the first in the state's order."""
+    flat = [(jax.tree_util.keystr(path, simple=True, separator="/"), np.asarray(ok))
+            for path, ok in jax.tree_util.tree_flatten_with_path(jax.device_get(flags))[0]]
+    bad = [(name, ok) for name, ok in flat if not np.all(ok)]
+    if not bad:
+        return None
+    seed = min(int(np.argmin(ok)) if ok.ndim else 0 for _, ok in bad)
+    names = [name for name, ok in bad if ok.ndim == 0 or not ok[seed]]
+    field = first[seed] if first is not None and seed < len(first) else None
+    named = [name for name in names if field is not None and name.split("/")[0] == field]
+    return f"{(named or names)[0]} of seed {seed}"
 
 
 def compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...] = ()):
@@ -261,7 +267,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position["run_s"] = host_start - start
         flags = finite(runner.sac)
-        bad = first_non_finite(flags)
+        fields = non_finite_fields(config)
+        bad = first_non_finite(flags, [fields[c - 1] if c else None
+                                       for c in np.ravel(jax.device_get(runner.non_finite))])
         if bad is not None:
             steps = int(runner.iteration) * config.num_envs
             if stop_on_non_finite:

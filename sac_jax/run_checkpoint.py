@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import collections
 import copy
-import glob
 import math
 import os
 import re
-import shutil
 import threading
+import time
 from typing import Callable, List, Optional, Tuple
 
 import jax
@@ -28,6 +27,8 @@ from sac_jax.run_dir import RunInfo, read_config, state_template
 from sac_jax.train import RunnerState
 
 CHECKPOINTS = "checkpoints"
+MIN_INTERVAL_S = 5.0
+"""`CheckpointWriter` starts a write at most this often."""
 
 
 class CheckpointWriteError(OSError):
@@ -70,8 +71,7 @@ def _write(run_dir: str, leaves: list, filled: int, position: dict) -> None:
         checkpoint.save(where, int(position["env_steps"]), leaves,
                         {"position": position, "buffer_filled": filled})
     except Exception as error:  # OSError, or tensorstore's ValueError naming the OS error
-        for partial in glob.glob(os.path.join(where, "*.orbax-checkpoint-tmp*")):
-            shutil.rmtree(partial, ignore_errors=True)
+        checkpoint.remove_partial(where)
         raise CheckpointWriteError(f"checkpoint of step {position['env_steps']} in {where} "
                                    f"could not be written ({_reason(error)})") from None
 
@@ -131,13 +131,22 @@ class CheckpointWriter(BackgroundWrites):
     keeps holds the filled replay slots only, where a device copy would hold every slot
     (`sac_jax.memory`). A write that fails raises `CheckpointWriteError` from the next `save`
     or from `close`.
+
+    Writes start at most every `min_interval_s` seconds (the first one that long after the
+    writer is made): a save in between is kept as the newest state waiting, and `close` (or
+    `flush`) writes it. A kill loses at most that much training; a stop (Ctrl-C, the end)
+    loses nothing. An orbax step costs about 0.06 s of CPU on 2 cores; written at every
+    evaluation point of the `fast` preset (one every 0.6 s) it slowed the run by 40%.
     """
 
-    def __init__(self, run_dir: str):
+    def __init__(self, run_dir: str, min_interval_s: Optional[float] = None):
         super().__init__()
         self._run_dir = run_dir
         self._lock = threading.Lock()
         self._newest: Optional[Callable[[], None]] = None
+        self._min_interval_s = MIN_INTERVAL_S if min_interval_s is None else min_interval_s
+        self._last_start = time.perf_counter()
+        self.submit(checkpoint.prepare)  # imports orbax while the run compiles
 
     def _write_newest(self) -> None:
         with self._lock:
@@ -156,7 +165,22 @@ class CheckpointWriter(BackgroundWrites):
             write = lambda: _write(self._run_dir, leaves, filled, position)
         with self._lock:
             self._newest = write
-        self.submit(self._write_newest)
+        if time.perf_counter() - self._last_start >= self._min_interval_s:
+            self._last_start = time.perf_counter()
+            self.submit(self._write_newest)
+
+    def flush(self) -> None:
+        """Writes the newest state waiting, if any, and waits for every write."""
+        if self._newest is not None:
+            self._last_start = time.perf_counter()
+            self.submit(self._write_newest)
+        self._collect(wait=True)
+
+    def close(self) -> None:
+        try:
+            self.flush()
+        finally:
+            super().close()
 
 
 def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = False
@@ -182,11 +206,15 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
                 raise checkpoint.CheckpointError(
                     f"checkpoint {legacy}: written by an earlier sac-jax (format 2) that kept no "
                     "delivered policy; it cannot be resumed, train anew")
-            return _buffer_filled_to(template.replace(delivered=None, stopped=None), filled)
+            return _buffer_filled_to(template.replace(delivered=None, stopped=None,
+                                                      non_finite=None), filled)
+        if meta.get("format") == 3:  # legacy files hold no non-finite code: finite then
+            return _buffer_filled_to(template.replace(non_finite=None), filled)
         return _buffer_filled_to(template, filled)
 
     if not os.path.isdir(directory(run_dir)) and os.path.exists(legacy):
         runner, meta = legacy_checkpoint.load(legacy, stored)
+        runner = runner.replace(non_finite=np.zeros(template.non_finite.shape, np.int32))
         return config, info, _padded(runner, config.buffer_size), meta["position"]
     try:
         runner, meta, _ = checkpoint.load(directory(run_dir), stored, step)

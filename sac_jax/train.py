@@ -65,8 +65,12 @@ class RunnerState(flax.struct.PyTreeNode):
     `sums` accumulates the current evaluation period's metrics as (sum, count) pairs;
     `outputs` holds one slot per evaluation point; `delivered` is the kept actor
     (`sac_jax.selection`); `stopped` () bool, whether this seed has stopped learning
-    (`SACConfig.stop_when_solved`); `hyperparams` {name: scalar}, the hyperparameters this
-    run trains with in place of the config's (`sac_jax.hyperparams`), or None."""
+    (`SACConfig.stop_when_solved`); `non_finite` () int32, 0 while the learner state is
+    finite, else 1 + the index in `non_finite_fields(config)` of the first of its fields that
+    held a NaN or an infinity after an update (checked after every update, so the quantity
+    that diverged first is named, not one it spread to); `hyperparams` {name: scalar}, the
+    hyperparameters this run trains with in place of the config's (`sac_jax.hyperparams`), or
+    None."""
 
     sac: SACState
     env: envs.VectorState
@@ -77,6 +81,7 @@ class RunnerState(flax.struct.PyTreeNode):
     outputs: Dict[str, jax.Array]
     delivered: selection.Delivered
     stopped: jax.Array
+    non_finite: jax.Array
     hyperparams: Optional[Dict[str, jax.Array]] = None
 
 
@@ -110,6 +115,29 @@ branches and selecting), and every seed's buffer is written in place at one posi
 per-seed position turns the write into a scatter)."""
 
 
+def non_finite_fields(config: SACConfig) -> Tuple[str, ...]:
+    """The `SACState` fields `config` trains, in the order an update writes them: each block of
+    `config.update_order` (critic: its parameters and optimiser state; value: likewise; actor:
+    its parameters and optimiser state, then the temperature's), then the Polyak targets."""
+    blocks = {"critic": ("critic_params", "critic_opt_state"),
+              "value": ("value_params", "value_opt_state"),
+              "actor": ("actor_params", "actor_opt_state", "log_alpha", "alpha",
+                        "alpha_opt_state")}
+    targets = ("critic_target_params",) if config.variant == "v2" else ("value_target_params",)
+    return tuple(f for name in config.update_order for f in blocks[name]) + targets
+
+
+def _non_finite_code(sac: SACState, fields: Tuple[str, ...]) -> jax.Array:
+    """1 + the index in `fields` of the first field of `sac` holding a NaN or an infinity; 0
+    if none does."""
+    code = jnp.int32(0)
+    for i, name in reversed(list(enumerate(fields))):
+        leaves = jax.tree_util.tree_leaves(getattr(sac, name))
+        finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
+        code = jnp.where(finite, code, jnp.int32(i + 1))
+    return code
+
+
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:
     """The agent sized for `config.env`, and that environment."""
     env = envs.make(config.env)
@@ -139,6 +167,7 @@ def make_train_parts(config: SACConfig,
     chunk_iterations = math.gcd(prefill, period)
     num_iterations = prefill + config.num_evals * period
     sum_names = METRIC_NAMES + ("train_return",)
+    watched = non_finite_fields(config)
     nan = jnp.float32(jnp.nan)
 
     # The key chain: init splits (k_sac, k_env, k_run); each iteration splits the run key into
@@ -157,12 +186,19 @@ def make_train_parts(config: SACConfig,
         index, randomness = source.learning(key, buffer.size, iteration)
         with jax.named_scope("replay_sample"):
             batches = rb.gather(buffer, index)
+        def update(carry, xs):
+            sac, code = carry
+            sac, metrics = sac_update(agent, sac, *xs)
+            # a few reductions per update (the parameters are read anyway): ~0.1% of it
+            code = jnp.where(code == 0, _non_finite_code(sac, watched), code)
+            return (sac, code), metrics
+
         with jax.named_scope("sac_update"):
-            sac, metrics = jax.lax.scan(lambda sac, xs: sac_update(agent, sac, *xs), sac,
-                                        (batches, randomness))
+            (sac, code), metrics = jax.lax.scan(update, (sac, jnp.int32(0)),
+                                                (batches, randomness))
         # float32 whatever the parameters' dtype (float64 in the x64 equivalence test)
-        return sac, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
-                     else nan for name in METRIC_NAMES}
+        return sac, code, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
+                           else nan for name in METRIC_NAMES}
 
     def mean_return(returns: jax.Array) -> jax.Array:
         """Mean of deterministic returns (over all devices' episodes in a data-parallel run,
@@ -220,13 +256,15 @@ def make_train_parts(config: SACConfig,
             buffer = rb.add(runner.buffer, Transition(
                 obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
                 terminated=step.terminated.astype(jnp.float32)))
-        sac, metrics = jax.lax.cond(
+        sac, code, metrics = jax.lax.cond(
             learning, lambda sac: learn(agent, sac, buffer, k_learn, runner.iteration),
-            lambda sac: (sac, {name: nan for name in METRIC_NAMES}), runner.sac)
+            lambda sac: (sac, jnp.int32(0), {name: nan for name in METRIC_NAMES}), runner.sac)
         if config.stop_when_solved:  # a stopped seed keeps its learner; the update count is shared
             keep = lambda old, new: jnp.where(runner.stopped, old, new)
             sac = jax.tree_util.tree_map(keep, runner.sac, sac).replace(step=sac.step)
             metrics = {name: keep(nan, m) for name, m in metrics.items()}
+            code = keep(jnp.int32(0), code)
+        non_finite = jnp.where(runner.non_finite == 0, code, runner.non_finite)
         metrics["train_return"] = jnp.sum(jnp.where(step.done, step.episode_return, 0.0))
         counts = {name: jnp.isfinite(m).astype(jnp.float32) for name, m in metrics.items()}
         counts["train_return"] = jnp.sum(step.done).astype(jnp.float32)
@@ -234,7 +272,7 @@ def make_train_parts(config: SACConfig,
                        count + counts[name])
                 for name, (total, count) in runner.sums.items()}
         return runner.replace(sac=sac, env=env_state, buffer=buffer, key=key, sums=sums,
-                              iteration=runner.iteration + 1), None
+                              iteration=runner.iteration + 1, non_finite=non_finite), None
 
     def chunk(runner: RunnerState) -> RunnerState:
         run_agent = agent.with_hyperparams(runner.hyperparams)
@@ -273,7 +311,7 @@ def make_train_parts(config: SACConfig,
                      **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
                         for name in sum_names + EVAL_NAMES}},
             delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False),
-            hyperparams=hyperparams)
+            non_finite=jnp.int32(0), hyperparams=hyperparams)
 
     return TrainParts(init, chunk, chunk_iterations, num_iterations // chunk_iterations,
                       record_draws)

@@ -53,7 +53,7 @@ def kill_at_checkpoint(step: int, timeout_s: float = 60.0) -> None:
                 if time.monotonic() > deadline:
                     os._exit(3)
                 time.sleep(0.05)
-            writer._collect(wait=True)  # the previous point's checkpoint is on disk
+            writer.flush()  # the previous point's checkpoint is on disk
             os.kill(os.getpid(), signal.SIGKILL)
         return save(writer, runner, position)
 

@@ -12,7 +12,7 @@ import numpy as np
 import envs
 
 import sac_jax
-from sac_jax import run
+from sac_jax import run, train
 
 # shapes of its own (hidden 24), so no other test in the process has compiled this check
 CONFIG = sac_jax.PRESETS["pendulum"].replace(
@@ -55,6 +55,25 @@ def test_the_first_non_finite_array_is_named_with_its_seed():
     assert run.first_non_finite(finite(sac)) is None
     bad = sac.replace(log_alpha=sac.log_alpha.at[1].set(jnp.nan))
     assert run.first_non_finite(finite(bad)) == "log_alpha of seed 1"
+    both = bad.replace(critic_params=jax.tree_util.tree_map(lambda x: x.at[1].set(jnp.inf),
+                                                            bad.critic_params))
+    assert run.first_non_finite(finite(both)).startswith("critic_params/")  # state order
+    # the field that went non-finite first, as the run recorded it
+    assert run.first_non_finite(finite(both), [None, "log_alpha"]) == "log_alpha of seed 1"
+
+
+def test_the_field_that_goes_non_finite_first_is_recorded_in_update_order():
+    """`RunnerState.non_finite` names, of the fields an update writes, the first (in the
+    update's order) holding a NaN after the first update that made any non-finite."""
+    fields = train.non_finite_fields(CONFIG)
+    assert fields[:2] == ("critic_params", "critic_opt_state") and "actor_params" in fields
+    one = train.agent_for(CONFIG)[0].init(jax.random.key(0))
+    nan = lambda tree: jax.tree_util.tree_map(lambda x: jnp.full_like(x, jnp.nan), tree)
+    assert int(train._non_finite_code(one, fields)) == 0
+    both = one.replace(actor_params=nan(one.actor_params), critic_params=nan(one.critic_params))
+    assert fields[int(train._non_finite_code(both, fields)) - 1] == "critic_params"
+    actor = one.replace(actor_params=nan(one.actor_params))
+    assert fields[int(train._non_finite_code(actor, fields)) - 1] == "actor_params"
 
 
 def test_a_sweep_trains_on_past_a_setting_that_diverges():

@@ -145,7 +145,7 @@ def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
         written.append((position["chunks_done"], int(runner.buffer.size)))
 
     monkeypatch.setattr(run_checkpoint, "save_checkpoint", slow_save)
-    writer = run_checkpoint.CheckpointWriter(str(tmp_path))
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path), min_interval_s=0)
     _, saved = run
     save = lambda n: writer.save(saved.replace(buffer=saved.buffer.replace(size=np.int32(n))),
                                  {"chunks_done": n, "env_steps": n})
@@ -156,6 +156,26 @@ def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
     release.set()
     writer.close()
     assert written == [(1, 1), (4, 4)]
+
+
+def test_writes_start_at_most_every_min_interval_and_close_writes_the_newest(
+        run, tmp_path, monkeypatch):
+    """Saves within the interval wait; the one waiting at `close` is written: the newest."""
+    written = []
+    monkeypatch.setattr(run_checkpoint, "_write", lambda directory, leaves, filled, position: (
+        written.append(position["env_steps"])))
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path), min_interval_s=3600)
+    for n in (1, 2, 3):
+        writer.save(run[1], {"chunks_done": n, "env_steps": n})
+    assert written == []
+    writer.close()
+    assert written == [3]
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path), min_interval_s=0)
+    for n in (4, 5):
+        writer.save(run[1], {"chunks_done": n, "env_steps": n})
+        writer._collect(wait=True)
+    writer.close()
+    assert written == [3, 4, 5]
 
 
 def test_on_the_cpu_a_save_copies_the_filled_replay_slots_only(run, tmp_path, monkeypatch):
