@@ -159,8 +159,10 @@ class CheckpointWriter(BackgroundWrites):
         if not _on_host(runner) and _room_for_copy(runner):
             state = jax.device_put(runner, may_alias=False)
             write = lambda: save_checkpoint(self._run_dir, state, position)
-        else:
+        else:  # one host copy at a time: none being written, the one waiting dropped first
             self._collect(wait=True)
+            with self._lock:
+                self._newest = None
             leaves, filled = _stored(runner)
             write = lambda: _write(self._run_dir, leaves, filled, position)
         with self._lock:

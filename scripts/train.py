@@ -9,10 +9,10 @@
 Prints one progress line per evaluation point (means over seeds: the last actor's and the
 delivered actor's returns; how many seeds' delivered policies are solved, and stopped) and
 writes the run directory (default runs/<preset>-<env>-<time>): config.json, run.json,
-checkpoints/ (at every evaluation, the newest two kept), tensorboard/ (live), and at the end
-metrics.csv, summary.json and curves.png; with --track, wandb.json (the W&B run's id) and W&B's
-files. What the run delivers is each seed's best confirmed actor
-(`sac_jax.selection`), which `sac_jax.load_policy` and scripts/evaluate.py load.
+checkpoints/ (at evaluation points, at most every 5 s, and at the end; the newest two kept),
+tensorboard/ (live), and at the end metrics.csv, summary.json and curves.png; with --track,
+wandb.json (the W&B run's id) and W&B's files. What the run delivers is each seed's best
+confirmed actor (`sac_jax.selection`), which `sac_jax.load_policy` and scripts/evaluate.py load.
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
 summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s after the first,
 stops at once, keeping the last checkpoint); `--resume` continues it to the same result as an
