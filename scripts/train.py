@@ -216,10 +216,12 @@ def main(argv=None) -> int:
                 on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
                 started=STARTED, check_memory=False)  # checked above, before the run directory
         finally:
-            for s, handler in previous.items():
-                signal.signal(s, handler)
-            tensorboard.close()
-            checkpoints.close()
+            try:  # still under our handlers: a second signal during the last save stops at once
+                tensorboard.close()
+                checkpoints.close()
+            finally:
+                for s, handler in previous.items():
+                    signal.signal(s, handler)
     except run_checkpoint.CheckpointWriteError as error:  # e.g. a full disk
         print(f"error: {error}; {_kept(out)}", file=sys.stderr, flush=True)
         return 1

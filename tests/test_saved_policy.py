@@ -75,6 +75,7 @@ def test_the_delivered_actor_by_default_the_last_one_on_request(tmp_path, runs):
 def _as_msgpack_run(path, runner, position, format):
     """Turns the run directory `path` into one of an earlier sac-jax: its state `runner` in a
     msgpack checkpoint of `format` (2: without the delivered actor and stop flags)."""
+    runner = runner.replace(non_finite=None)  # earlier sac-jax kept no non-finite record
     if format == 2:
         runner = runner.replace(delivered=None, stopped=None)
     leaves, filled = run_checkpoint._stored(runner)

@@ -9,6 +9,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
 
@@ -289,6 +290,28 @@ def test_a_second_sigint_stops_at_once_with_one_line(tmp_path, capsys):
     assert err[-1].startswith("error: SIGINT again: stopped at once; ") and "Traceback" not in "".join(err)
     if run_checkpoint.saved_steps(out):
         run_checkpoint.load_checkpoint(out)  # whole: it loads
+
+
+def test_a_second_sigint_during_the_final_save_stops_with_one_line_and_a_whole_checkpoint(
+        tmp_path, capsys, monkeypatch):
+    """The first SIGINT stops the run at its first point; the second comes while the final
+    checkpoint is being written: one line, exit 130, and the checkpoint, whose write the
+    process waits for, is whole."""
+    save = checkpoint.save
+
+    def interrupted_save(directory, step, tree, meta):
+        os.kill(os.getpid(), signal.SIGINT)
+        save(directory, step, tree, meta)
+
+    monkeypatch.setattr(checkpoint, "save", interrupted_save)
+    out = str(tmp_path / "final")
+    code = _interrupted_run(out, signals=1)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 130, err
+    assert err[-1] == ("error: SIGINT again: stopped at once; the last checkpoint written (step "
+                       f"2000) is kept: continue with --resume {out}"), err
+    assert run_checkpoint.saved_steps(out) == [2000]
+    run_checkpoint.load_checkpoint(out)  # whole: it loads
 
 
 def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs):
