@@ -29,8 +29,12 @@
 #          README's command, seeds 0, 1, 2 one at a time and 256 seeds in one run, judged on
 #          the device; delivered-KIND.json comes back in $OUT). Its wheels (no brax): mujoco,
 #          mujoco-core, mujoco-mjx, trimesh, flax, optax, distrax, tfp-nightly, dm-tree,
-#          decorator, gast, tyro, docstring-parser, typeguard, tensorboardX, gymnasium,
-#          farama-notifications, and glfw, which Gymnasium's MuJoCo environments import (26 MB).
+#          decorator, gast, tyro, docstring-parser, typeguard, gymnasium,
+#          farama-notifications, glfw, which Gymnasium's MuJoCo environments import, and for
+#          checkpoints and TensorBoard orbax-checkpoint, tensorstore, humanize, aiofiles,
+#          simplejson, uvloop, prometheus-client and tensorboard (59 MB).
+#        bash benchmarks/gpu.sh progress [progress_overhead.py flags, e.g. --seeds 256] (the
+#          delivered mode's wheels)
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
@@ -72,7 +76,7 @@ case "$mode" in
   torch)
     run python3 -m benchmarks.torch_time_to_solve "$@" ;;
   delivered)
-    python3 -c "import tyro, tensorboardX, gymnasium; from mujoco import mjx
+    python3 -c "import tyro, tensorboard, orbax.checkpoint, gymnasium; from mujoco import mjx
 gymnasium.make('InvertedPendulum-v5').close()" || exit 1
     # delivered.py holds JAX on the GPU (its judging) while it starts each training process:
     # with JAX's default preallocation of 75 % of the memory the next one cannot allocate.
@@ -80,8 +84,11 @@ gymnasium.make('InvertedPendulum-v5').close()" || exit 1
     run python3 -m benchmarks.delivered --seeds 0 1 2 --many 256 --judge ours "$@" ;;
   presets)
     run python3 -m benchmarks.presets_delivered "$@" ;;
+  progress)
+    python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
+    run python3 -m benchmarks.progress_overhead "$@" ;;
   sweep)
-    python3 -c "import tyro, tensorboardX; from mujoco import mjx" || exit 1
+    python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
     run python3 -m benchmarks.sweep --grid 64 --seeds 4 --separate 1 "$@" ;;
   *)
     echo "unknown mode $mode"; exit 2 ;;

@@ -219,6 +219,7 @@ PROFILE_GPU = "bash benchmarks/gpu.sh profile"
 TORCH_CPU = "python -m benchmarks.torch_time_to_solve --threads 2"
 PROGRESS_CPU = {"fast": "python -m benchmarks.progress_overhead --repeats 5",
                 "pendulum": "python -m benchmarks.progress_overhead --preset pendulum --repeats 3"}
+PROGRESS_GPU = {"fast": "bash benchmarks/gpu.sh progress --seeds 256 --repeats 3"}
 PARALLEL_GPUS = "bash benchmarks/gpu.sh parallel"  # on a host of 2 GPUs
 
 
@@ -377,10 +378,10 @@ def torch_loop() -> str:
 
 
 def progress() -> str:
-    """Host time spent following a run: progress, TensorBoard, checkpoints (CPU)."""
+    """Host time spent following a run: progress, TensorBoard, checkpoints (CPU; an H100)."""
     def rows_of(name, data):
         r = data["result"]
-        return [[f"`{r['preset']}` ({r.get('total_steps', 0):,} steps, "
+        return [[name.rsplit("-", 1)[-1], f"`{r['preset']}` ({r.get('total_steps', 0):,} steps, "
                  f"{r.get('buffer_size', 0):,}-slot buffer), {_count(r['seeds'], 'seed')}, "
                  f"{_count(r['repeats'], 'repeat')}", f"{r['chunks_s']:.2f}",
                  f"{r['followed_s']:.2f}",
@@ -390,8 +391,10 @@ def progress() -> str:
                                                         " (≤ 5 %: not met)"),
                  _date(data), f"`{name}.json`"]]
     return _sources([(_find(f"progress_overhead-{preset}-cpu"), command)
-                     for preset, command in PROGRESS_CPU.items()],
-                    ["preset", "chunks s", "followed s", "followed / chunks", "host share",
+                     for preset, command in PROGRESS_CPU.items()] +
+                    [(_find(f"progress_overhead-{preset}-h100"), command)
+                     for preset, command in PROGRESS_GPU.items()],
+                    ["device", "preset", "chunks s", "followed s", "followed / chunks", "host share",
                      "date", "results"], rows_of)
 
 

@@ -215,6 +215,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         threshold (`envs.spec(env).solved_return`), means["solved"] is the fraction of seeds whose delivered
         actor has reached it (`delivered_return`), and means["stopped"] the fraction stopped.
     on_checkpoint(state, position): after every evaluation point and when stopping on request;
+        position["ends_run"] says whether the run ends there (its last point, or a stop);
         the state is not touched afterwards until the call returns (save it there).
     should_stop(): polled after every chunk; True ends the run as INTERRUPTED. Also polled while
         the host waits for a chunk: if it stays True for `stop_grace_s` seconds before the chunk
@@ -293,6 +294,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                          position["run_s"])
         stop = should_stop is not None and should_stop()
         position["env_steps"] = int(runner.iteration) * config.num_envs
+        position["ends_run"] = bool(stop or position["chunks_done"] >= parts.num_chunks
+                                    or all_stopped(runner))
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
             on_checkpoint(runner, position)
         position["host_s"] += time.perf_counter() - host_start

@@ -84,7 +84,7 @@ def test_saving_at_new_fill_levels_compiles_nothing(run, tmp_path, caplog):
     the CPU, while the device waited (BENCHMARKS.md)."""
     _, saved = run
     runner = jax.device_put(saved)  # device arrays, as a run's state
-    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"))
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"), min_interval_s=0)
     with jax.log_compiles(True), caplog.at_level(logging.WARNING):
         for filled in (41, 42):
             state = runner.replace(buffer=runner.buffer.replace(
@@ -121,7 +121,7 @@ def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monke
     run_checkpoint.save_checkpoint(str(tmp_path / "direct"), saved, {"chunks_done": 3, "env_steps": 9})
     runner = jax.tree_util.tree_map(lambda x: jax.device_put(x).copy(), saved)  # its own buffers
     position = {"chunks_done": 3, "env_steps": 9}
-    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"))
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"), min_interval_s=0)
     writer.save(runner, position)
     for leaf in jax.tree_util.tree_leaves(runner):
         leaf.delete()
@@ -158,22 +158,20 @@ def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
     assert written == [(1, 1), (4, 4)]
 
 
-def test_writes_start_at_most_every_min_interval_and_close_writes_the_newest(
+def test_states_are_saved_at_most_every_min_interval_and_where_the_run_ends(
         run, tmp_path, monkeypatch):
-    """Saves within the interval wait; the one waiting at `close` is written: the newest."""
+    """Saves within the interval are skipped; the one where the run ends is written."""
     written = []
     monkeypatch.setattr(run_checkpoint, "_write", lambda directory, leaves, filled, position: (
         written.append(position["env_steps"])))
     writer = run_checkpoint.CheckpointWriter(str(tmp_path), min_interval_s=3600)
     for n in (1, 2, 3):
-        writer.save(run[1], {"chunks_done": n, "env_steps": n})
-    assert written == []
+        writer.save(run[1], {"chunks_done": n, "env_steps": n, "ends_run": n == 3})
     writer.close()
     assert written == [3]
     writer = run_checkpoint.CheckpointWriter(str(tmp_path), min_interval_s=0)
     for n in (4, 5):
-        writer.save(run[1], {"chunks_done": n, "env_steps": n})
-        writer._collect(wait=True)
+        writer.save(run[1], {"chunks_done": n, "env_steps": n, "ends_run": False})
     writer.close()
     assert written == [3, 4, 5]
 
@@ -187,7 +185,7 @@ def test_on_the_cpu_a_save_copies_the_filled_replay_slots_only(run, tmp_path, mo
     monkeypatch.setattr(run_checkpoint, "_write", lambda directory, leaves, filled, position: (
         kept.append((filled, leaves)), write(directory, leaves, filled, position)))
     _, saved = run
-    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"))
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"), min_interval_s=0)
     writer.save(saved, {"chunks_done": 3, "env_steps": 5})
     writer.close()
     (filled, leaves), = kept
@@ -200,7 +198,7 @@ def test_on_the_cpu_a_save_copies_the_filled_replay_slots_only(run, tmp_path, mo
 
 def test_background_writer_reraises_a_failed_write_in_one_line(run, tmp_path):
     (tmp_path / "file").write_text("not a directory")
-    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "file" / "run"))
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "file" / "run"), min_interval_s=0)
     writer.save(run[1], {"chunks_done": 3, "env_steps": 7})
     with pytest.raises(run_checkpoint.CheckpointWriteError,
                        match=r"^checkpoint of step 7 in .*/file/run/checkpoints could not be "
