@@ -166,6 +166,24 @@ def remove_partial(directory: str) -> None:
         shutil.rmtree(partial, ignore_errors=True)
 
 
+def expected_leaves(template, meta: dict, count: int, where: str):
+    """(leaves, treedef) of `template` (a pytree, or a function of the stored `meta` returning
+    one), which must have the `count` leaves the checkpoint `where` holds; CheckpointError
+    otherwise."""
+    if callable(template):
+        try:
+            template = template(meta)
+        except CheckpointError:
+            raise
+        except (KeyError, TypeError, ValueError) as error:
+            raise CheckpointError(f"checkpoint {where}: unexpected metadata ({error!r})") from None
+    expected, treedef = jax.tree_util.tree_flatten(template)
+    if count != len(expected):
+        raise CheckpointError(f"checkpoint {where}: holds {count} arrays, this "
+                              f"configuration has {len(expected)}")
+    return expected, treedef
+
+
 def _existing_ancestor(path: str) -> str:
     path = os.path.abspath(path)
     while not os.path.exists(path):
@@ -207,17 +225,7 @@ def load(directory: str, template: Union[Any, Callable[[dict], Any]], step: Opti
         raise
     except Exception as error:  # orbax and tensorstore raise several types on damaged input
         raise CheckpointError(f"checkpoint {where}: unreadable ({type(error).__name__})") from None
-    if callable(template):
-        try:
-            template = template(meta)
-        except CheckpointError:
-            raise
-        except (KeyError, TypeError, ValueError) as error:
-            raise CheckpointError(f"checkpoint {where}: unexpected metadata ({error!r})") from None
-    expected, treedef = jax.tree_util.tree_flatten(template)
-    if len(records) != len(expected):
-        raise CheckpointError(f"checkpoint {where}: holds {len(records)} arrays, this "
-                              f"configuration has {len(expected)}")
+    expected, treedef = expected_leaves(template, meta, len(records), where)
     wanted = [jax.eval_shape(jax.random.key_data, x) if _is_key(x) else x for x in expected]
     for i, (record, want) in enumerate(zip(records, wanted)):
         if (tuple(record["shape"]), record["dtype"]) != (tuple(want.shape), want.dtype.name):

@@ -20,7 +20,7 @@ import jax
 import numpy as np
 from flax import serialization
 
-from sac_jax.checkpoint import CheckpointError, _crc32, _is_key
+from sac_jax.checkpoint import CheckpointError, _crc32, _is_key, expected_leaves
 
 FILE = "checkpoint.msgpack"
 FORMATS = (2, 3)
@@ -45,17 +45,7 @@ def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, d
         raise
     except Exception as error:  # msgpack raises several types on damaged input
         raise CheckpointError(f"checkpoint {path}: unreadable ({type(error).__name__})") from None
-    if callable(template):
-        try:
-            template = template(meta)
-        except CheckpointError:
-            raise
-        except (KeyError, TypeError, ValueError) as error:
-            raise CheckpointError(f"checkpoint {path}: unexpected metadata ({error!r})") from None
-    expected, treedef = jax.tree_util.tree_flatten(template)
-    if len(stored) != len(expected):
-        raise CheckpointError(f"checkpoint {path}: holds {len(stored)} arrays, this "
-                              f"configuration has {len(expected)}")
+    expected, treedef = expected_leaves(template, meta, len(stored), path)
     leaves = []
     for i, want in enumerate(expected):
         got = np.asarray(stored[str(i)])
