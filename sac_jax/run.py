@@ -30,6 +30,7 @@ from sac_jax import hyperparams, memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import over_seed_axis, seeds_program
+from sac_jax.position import Position
 from sac_jax.program_cache import cached_compile
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts, non_finite_fields
 
@@ -62,14 +63,14 @@ class RunResult:
     `wall_s` (training seconds, compile excluded, at each point) and `steps_per_s` (environment
     steps per second of one seed) added to the program's metrics;
     `status`: FINISHED, INTERRUPTED (`should_stop` said so) or NON_FINITE (`message` says which
-    quantity, seed and step); `position`: where the host loop is, as a checkpoint stores it."""
+    quantity, seed and step); `position`: where the host loop ended."""
 
     state: RunnerState
     metrics: Dict[str, np.ndarray]
     points: int
     status: str
     message: str
-    position: dict
+    position: Position
     summary: dict
 
 
@@ -209,13 +210,14 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         sweep: each setting (`sac_jax.hyperparams.sweep`) trains the same `seeds` keys, all
         S x seeds runs in the one program, setting-major (run r = setting r // seeds, key
         r % seeds); every per-seed figure of the result then has S x seeds entries.
-    resume: `(state, position)` read from a checkpoint; the run continues from there.
+    resume: `(state, Position)` read from a checkpoint; the run continues from there.
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
         metrics averaged over seeds and each seed's evaluation return; for a task with a solved
         threshold (`envs.spec(env).solved_return`), means["solved"] is the fraction of seeds whose delivered
         actor has reached it (`delivered_return`), and means["stopped"] the fraction stopped.
-    on_checkpoint(state, position): after every evaluation point and when stopping on request;
-        position["ends_run"] says whether the run ends there (its last point, or a stop);
+    on_checkpoint(state, position): after every evaluation point and when stopping on request,
+        with the loop's `Position` (`ends_run`: whether the run ends there, at its last point
+        or a stop);
         the state is not touched afterwards until the call returns (save it there).
     should_stop(): polled after every chunk; True ends the run as INTERRUPTED. Also polled while
         the host waits for a chunk: if it stays True for `stop_grace_s` seconds before the chunk
@@ -241,16 +243,13 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         if len(configs) > 1:  # every setting trains the same keys
             keys = jnp.concatenate([keys] * len(configs))
         runner = init(keys, *([values] if values else []))
-        position = {"env_steps": 0, "chunks_done": 0, "compile_s": 0.0, "run_s": 0.0, "host_s": 0.0,
-                    "startup_s": t0 - (t0 if started is None else started), "walls": {},
-                    "non_finite": {}}
+        position = Position(startup_s=t0 - (t0 if started is None else started))
     else:
         runner, position = resume
         runner = jax.device_put(runner, sharding)
-        position = dict(position, walls=dict(position["walls"]),
-                        non_finite=dict(position.get("non_finite", {})))
-    position["compile_s"] += time.perf_counter() - t0
-    start = time.perf_counter() - position["run_s"]
+        position = position.copy()
+    position.compile_s += time.perf_counter() - t0
+    start = time.perf_counter() - position.run_s
     status, message = FINISHED, ""
 
     def points_reached(state) -> int:
@@ -261,12 +260,12 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         return config.stop_when_solved and bool(np.all(jax.device_get(state.stopped)))
 
     points = points_reached(runner)
-    while position["chunks_done"] < parts.num_chunks and not all_stopped(runner):
+    while position.chunks_done < parts.num_chunks and not all_stopped(runner):
         runner = chunk(runner)
-        position["chunks_done"] += 1
+        position.chunks_done += 1
         new_points = points_reached(runner)
         host_start = time.perf_counter()  # the device waits from here to the next chunk
-        position["run_s"] = host_start - start
+        position.run_s = host_start - start
         flags = finite(runner.sac)
         fields = non_finite_fields(config)
         bad = first_non_finite(flags, [fields[c - 1] if c else None
@@ -280,7 +279,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                                   for f in jax.tree_util.tree_leaves(jax.device_get(flags))],
                                  axis=0)
             for run in np.flatnonzero(~finite_runs):
-                position["non_finite"].setdefault(str(run), steps)
+                position.non_finite.setdefault(int(run), steps)
         reached = new_points > points
         if reached:
             points = new_points
@@ -288,38 +287,38 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
             outputs = jax.device_get(runner.outputs)
             point = {k: v[:, points - 1] for k, v in outputs.items()}
             step = int(point["env_steps"][0])
-            position["walls"][str(step)] = position["run_s"]
+            position.walls[step] = position.run_s
             if on_point is not None:
                 on_point(step, point_means(config, point), np.asarray(point["eval_return"]),
-                         position["run_s"])
+                         position.run_s)
         stop = should_stop is not None and should_stop()
-        position["env_steps"] = int(runner.iteration) * config.num_envs
-        position["ends_run"] = bool(stop or position["chunks_done"] >= parts.num_chunks
+        position.env_steps = int(runner.iteration) * config.num_envs
+        position.ends_run = bool(stop or position.chunks_done >= parts.num_chunks
                                     or all_stopped(runner))
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
             on_checkpoint(runner, position)
-        position["host_s"] += time.perf_counter() - host_start
-        if stop and position["chunks_done"] < parts.num_chunks:
+        position.host_s += time.perf_counter() - host_start
+        if stop and position.chunks_done < parts.num_chunks:
             steps = int(runner.iteration) * config.num_envs
             status, message = INTERRUPTED, f"stopped at environment step {steps}"
             break
 
-    position["run_s"] = time.perf_counter() - start
+    position.run_s = time.perf_counter() - start
     metrics = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
     walls = np.full(config.num_evals, np.nan)
     for p, step in enumerate(metrics["env_steps"][0, :points]):
-        walls[p] = position["walls"].get(str(int(step)), np.nan)
+        walls[p] = position.walls.get(int(step), np.nan)
     metrics["wall_s"] = np.broadcast_to(walls, metrics["eval_return"].shape).copy()
     metrics["steps_per_s"] = metrics["env_steps"] / metrics["wall_s"]
     summary = dict(run_summary(config, metrics, points, position,
                                jax.device_get(runner.delivered.env_steps),
                                jax.device_get(runner.stopped)),
                    seeds=seeds, status=status, message=message,
-                   non_finite_at_step=[position["non_finite"].get(str(r)) for r in range(seeds)])
+                   non_finite_at_step=[position.non_finite.get(r) for r in range(seeds)])
     return RunResult(runner, metrics, points, status, message, position, summary)
 
 
-def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, position: dict,
+def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, position: Position,
                 delivered_steps: np.ndarray, stopped: np.ndarray) -> dict:
     """summary.json's figures of a run: per seed, the last evaluation of the last actor
     (`eval_return`), the delivered actor's confirmed return (`delivered_return`) and the step
@@ -329,9 +328,9 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
     was solved (None unless all were)."""
     threshold = envs.spec(config.env).solved_return
     steps = metrics["env_steps"][0, :points]
-    before_training = position["startup_s"] + position["compile_s"]
+    before_training = position.startup_s + position.compile_s
     # a point reached in the chunk that a non-finite state ended was never followed: no time
-    walls = {int(k): round(v, 3) for k, v in position["walls"].items()}
+    walls = {k: round(v, 3) for k, v in position.walls.items()}
     wall = lambda step: walls.get(step)
     process = lambda step: None if wall(step) is None else round(before_training + wall(step), 3)
     last = lambda name: [float(r) for r in metrics[name][:, points - 1]] if points else []
@@ -339,7 +338,7 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
     solved = [solved_at(r, steps, threshold) if threshold is not None else None
               for r in metrics["delivered_return"][:, :points]]
     slowest = (None if not solved or None in solved
-               else max(solved, key=lambda s: position["walls"][str(s)]))
+               else max(solved, key=lambda s: position.walls[s]))
     return {
         "env": config.env,
         "total_steps": int(steps[-1]) if points else 0,
@@ -358,9 +357,9 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
         "peak_device_bytes": (jax.local_devices()[0].memory_stats() or {}).get(
             "peak_bytes_in_use"),
         "memory_model_peak_bytes": memory.need(config, len(stopped)).peak,
-        "startup_s": round(position["startup_s"], 3),
-        "compile_s": round(position["compile_s"], 3),
-        "run_s": round(position["run_s"], 3),
-        "host_s": round(position["host_s"], 3),
-        "wall_s": round(position["compile_s"] + position["run_s"], 3),
+        "startup_s": round(position.startup_s, 3),
+        "compile_s": round(position.compile_s, 3),
+        "run_s": round(position.run_s, 3),
+        "host_s": round(position.host_s, 3),
+        "wall_s": round(position.compile_s + position.run_s, 3),
     }

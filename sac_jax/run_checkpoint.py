@@ -9,7 +9,6 @@ slots only, and read back bit for bit against the state of the run's own configu
 from __future__ import annotations
 
 import collections
-import copy
 import math
 import os
 import re
@@ -23,6 +22,7 @@ import numpy as np
 from sac_jax import checkpoint, legacy_checkpoint
 from sac_jax.background import BackgroundWrites
 from sac_jax.config import SACConfig
+from sac_jax.position import Position
 from sac_jax.run_dir import RunInfo, read_config, state_template
 from sac_jax.train import RunnerState
 
@@ -63,16 +63,16 @@ def _stored(runner: RunnerState) -> Tuple[list, int]:
     return checkpoint.to_host(_buffer_filled_to(runner, filled)), filled
 
 
-def _write(run_dir: str, leaves: list, filled: int, position: dict) -> None:
-    """Writes checkpoint step position["env_steps"]; `CheckpointWriteError` (one line) if it
+def _write(run_dir: str, leaves: list, filled: int, position: Position) -> None:
+    """Writes checkpoint step `position.env_steps`; `CheckpointWriteError` (one line) if it
     cannot be written, leaving the earlier steps and no partial one."""
     where = directory(run_dir)
     try:
-        checkpoint.save(where, int(position["env_steps"]), leaves,
-                        {"position": position, "buffer_filled": filled})
+        checkpoint.save(where, position.env_steps, leaves,
+                        {"position": position.to_json(), "buffer_filled": filled})
     except Exception as error:  # OSError, or tensorstore's ValueError naming the OS error
         checkpoint.remove_partial(where)
-        raise CheckpointWriteError(f"checkpoint of step {position['env_steps']} in {where} "
+        raise CheckpointWriteError(f"checkpoint of step {position.env_steps} in {where} "
                                    f"could not be written ({_reason(error)})") from None
 
 
@@ -85,9 +85,9 @@ def _reason(error: Exception) -> str:
     return os.strerror(int(code.group(1))) if code else str(error).splitlines()[0][:200]
 
 
-def save_checkpoint(run_dir: str, runner: RunnerState, position: dict) -> None:
+def save_checkpoint(run_dir: str, runner: RunnerState, position: Position) -> None:
     """Saves the training state and the host loop's `position` (environment steps, chunks done,
-    clocks) as checkpoint step position["env_steps"]."""
+    clocks) as checkpoint step `position.env_steps`."""
     _write(run_dir, *_stored(runner), position)
 
 
@@ -133,7 +133,7 @@ class CheckpointWriter(BackgroundWrites):
     or from `close`.
 
     A state is saved at most every `min_interval_s` seconds (the first that long after the
-    writer is made), and always where the run ends (position["ends_run"]: its last point, or
+    writer is made), and always where the run ends (`position.ends_run`: its last point, or
     a stop); a save in between returns at once, copying nothing. A kill loses at most that
     much training; a stop (Ctrl-C, the end) loses nothing. An orbax step costs about 0.06 s
     of CPU on 2 cores; written at every evaluation point of the `fast` preset (one every
@@ -155,12 +155,12 @@ class CheckpointWriter(BackgroundWrites):
         if write is not None:
             write()
 
-    def save(self, runner: RunnerState, position: dict) -> None:
+    def save(self, runner: RunnerState, position: Position) -> None:
         due = time.perf_counter() - self._last_start >= self._min_interval_s
-        if not (due or position.get("ends_run")):
+        if not (due or position.ends_run):
             return
         self._last_start = time.perf_counter()
-        position = copy.deepcopy(position)
+        position = position.copy()
         if not _on_host(runner) and _room_for_copy(runner):
             state = jax.device_put(runner, may_alias=False)
             write = lambda: save_checkpoint(self._run_dir, state, position)
@@ -176,7 +176,7 @@ class CheckpointWriter(BackgroundWrites):
 
 
 def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = False
-                    ) -> Tuple[SACConfig, RunInfo, RunnerState, dict]:
+                    ) -> Tuple[SACConfig, RunInfo, RunnerState, Position]:
     """(config, run info, training state, position) of the run directory's checkpoint of
     environment step `step` (default: the newest); `RunDirError` or its subclass
     `checkpoint.CheckpointError` says what is wrong. A damaged newest checkpoint is refused,
@@ -189,6 +189,7 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
     legacy = os.path.join(run_dir, legacy_checkpoint.FILE)
 
     def stored(meta):
+        Position.from_json(meta["position"])  # a bad one is "unexpected metadata"
         filled = meta["buffer_filled"]
         if isinstance(filled, bool) or not isinstance(filled, int) or not (
                 0 <= filled <= config.buffer_size):
@@ -207,7 +208,8 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
     if not os.path.isdir(directory(run_dir)) and os.path.exists(legacy):
         runner, meta = legacy_checkpoint.load(legacy, stored)
         runner = runner.replace(non_finite=np.zeros(template.non_finite.shape, np.int32))
-        return config, info, _padded(runner, config.buffer_size), meta["position"]
+        return (config, info, _padded(runner, config.buffer_size),
+                Position.from_json(meta["position"]))
     try:
         runner, meta, _ = checkpoint.load(directory(run_dir), stored, step)
     except checkpoint.CheckpointError as error:
@@ -217,7 +219,8 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
         raise checkpoint.CheckpointError(
             f"{error}; the checkpoint of step {intact} before it is intact: load that step "
             "explicitly (scripts/train.py --resume-step)") from None
-    return config, info, _padded(runner, config.buffer_size), meta["position"]
+    return (config, info, _padded(runner, config.buffer_size),
+            Position.from_json(meta["position"]))
 
 
 def _intact_before(run_dir: str, template) -> Optional[int]:

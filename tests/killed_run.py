@@ -46,7 +46,7 @@ def kill_at_checkpoint(step: int, timeout_s: float = 60.0) -> None:
     save = run_checkpoint.CheckpointWriter.save
 
     def save_or_die(writer, runner, position):
-        if max(map(int, position["walls"]), default=None) == step:
+        if max(position.walls, default=None) == step:
             events = os.path.join(writer._run_dir, "tensorboard")
             deadline = time.monotonic() + timeout_s
             while step not in tensorboard_steps(events):

@@ -3,16 +3,24 @@ ways to damage their checkpoints, and the one-line-error check."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import jax
+import numpy as np
 
 from sac_jax import PRESETS, run_checkpoint, run_dir
+from sac_jax.position import Position
 from sac_jax.train import SEED_AXES, make_train_parts
 from scripts import train as train_script
 
 TINY_PENDULUM = ["--preset", "pendulum", "--total-steps", "3000", "--eval-every", "1000",
                  "--learning-starts", "1000", "--buffer-size", "3000", "--eval-episodes", "2"]
+SMALL_RUN = ["--preset", "pendulum", "--total-steps", "4000", "--eval-every", "1000",
+             "--learning-starts", "1000", "--buffer-size", "4000", "--eval-episodes", "2",
+             "--actor-hidden", "32", "32", "--critic-hidden", "32", "32", "--seed", "3"]
+"""scripts/train.py flags of a 4000-step Pendulum-v1 run with 32-wide networks, evaluated
+every 1000 steps: a run directory with points and checkpoints, quick to compile."""
 
 
 def trained_pendulum(out: str) -> str:
@@ -28,9 +36,24 @@ def untrained(out: str, env: str, seeds: int = 1, **overrides) -> str:
     run_dir.create(out, config, preset="fast", seeds=seeds, seed=0)
     init = jax.jit(jax.vmap(make_train_parts(config).init, out_axes=SEED_AXES))
     runner = init(jax.random.split(jax.random.key(0), seeds))
-    run_checkpoint.save_checkpoint(out, runner, {"env_steps": 0, "chunks_done": 0,
-                                                 "compile_s": 0.0, "run_s": 0.0, "walls": {}})
+    run_checkpoint.save_checkpoint(out, runner, Position())
     return out
+
+
+def two_checkpoints(out: str):
+    """(out, state): a Pendulum-v1 run directory of 2 seeds whose state has 40 of 4000 replay
+    slots filled (with normal draws), saved as step 0 (the untrained state) and step 800."""
+    untrained(out, "Pendulum-v1", seeds=2, buffer_size=4000, total_steps=6000,
+              learning_starts=2000, eval_every=2000, num_envs=8)
+    _, _, runner, position = run_checkpoint.load_checkpoint(out)
+    rng = np.random.default_rng(0)
+    data = jax.tree_util.tree_map(lambda x: np.concatenate(
+        [rng.normal(size=(x.shape[0], 40) + x.shape[2:]).astype(x.dtype), x[:, 40:]], axis=1),
+        runner.buffer.data)
+    runner = runner.replace(buffer=runner.buffer.replace(data=data, size=np.int32(40)))
+    run_checkpoint.save_checkpoint(out, runner,
+                                   dataclasses.replace(position, chunks_done=3, env_steps=800))
+    return out, runner
 
 
 def fails_in_one_line(capsys, main, argv, code, message):

@@ -102,7 +102,7 @@ def test_a_stop_the_device_does_not_answer_in_time_leaves_the_chunk():
     config = CONFIG.replace(learning_starts=2048, eval_every=2048, total_steps=4096,
                             num_envs=1)
     result = run.run_training(config, should_stop=lambda: True)
-    assert result.status == run.INTERRUPTED and result.position["chunks_done"] == 1
+    assert result.status == run.INTERRUPTED and result.position.chunks_done == 1
     with pytest.raises(run.DeviceBusy, match="still running a chunk 0 s after the stop"):
         run.run_training(config, should_stop=lambda: True, stop_grace_s=0.0)
 

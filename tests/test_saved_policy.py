@@ -79,7 +79,7 @@ def _as_msgpack_run(path, runner, position, format):
     if format == 2:
         runner = runner.replace(delivered=None, stopped=None)
     leaves, filled = run_checkpoint._stored(runner)
-    payload = {"format": format, "meta": {"position": position, "buffer_filled": filled},
+    payload = {"format": format, "meta": {"position": position.to_json(), "buffer_filled": filled},
                "leaves": {str(i): x for i, x in enumerate(leaves)}}
     with open(os.path.join(path, legacy_checkpoint.FILE), "wb") as f:
         f.write(serialization.msgpack_serialize(payload))
