@@ -285,8 +285,10 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
             should_stop=lambda: stop.signal is not None, started=STARTED, check_memory=False,
             stop_on_non_finite=False)
     finally:
-        tensorboard.close()
-        checkpoints.close()
+        try:
+            tensorboard.close()
+        finally:  # waits for the checkpoint under way, even if a signal came first
+            checkpoints.close()
     write_results(path, program.config, sweep["preset"], result)
     if wandb_run is not None:
         code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)

@@ -217,8 +217,10 @@ def main(argv=None) -> int:
                 started=STARTED, check_memory=False)  # checked above, before the run directory
         finally:
             try:  # still under our handlers: a second signal during the last save stops at once
-                tensorboard.close()
-                checkpoints.close()
+                try:
+                    tensorboard.close()
+                finally:  # waits for the checkpoint under way, even if a signal came first
+                    checkpoints.close()
             finally:
                 for s, handler in previous.items():
                     signal.signal(s, handler)
