@@ -35,6 +35,8 @@
 #          simplejson, uvloop, prometheus-client and tensorboard (59 MB).
 #        bash benchmarks/gpu.sh progress [progress_overhead.py flags, e.g. --seeds 256] (the
 #          delivered mode's wheels)
+#        bash benchmarks/gpu.sh memory [benchmarks/memory.py flags, e.g. --largest 1000000] (the
+#          delivered mode's wheels; memory-KIND.json)
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
@@ -87,6 +89,9 @@ gymnasium.make('InvertedPendulum-v5').close()" || exit 1
   progress)
     python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
     run python3 -m benchmarks.progress_overhead "$@" ;;
+  memory)
+    python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
+    run env XLA_PYTHON_CLIENT_PREALLOCATE=false python3 -m benchmarks.memory "$@" ;;
   sweep)
     python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
     run python3 -m benchmarks.sweep --grid 64 --seeds 4 --separate 1 "$@" ;;

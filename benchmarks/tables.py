@@ -194,15 +194,25 @@ def brax() -> str:
 
 
 def memory() -> str:
-    """Peak memory per replay slot and per seed against their data (CPU)."""
+    """Peak memory per replay slot and per seed against their data, and `sac_jax.memory`'s
+    estimate against the measured peak of each run (CPU)."""
     data = _load("memory")
     r, date = data["result"], _date(data)
-    return _table(["quantity", "date", "peak bytes", "data bytes", "ratio", "results"], [
-        ["per replay slot (`fast`, 1 seed)", date, f"{r['bytes_per_slot']:.1f}",
-         r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}", "`memory.json`"],
-        ["per seed, its buffer included (`fast`)", date, f"{r['bytes_per_seed']:,}",
-         f"{r['seed_data_bytes']:,}", f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}",
-         "`memory.json`"]])
+    rows = [["per replay slot (`fast`, 1 seed)", date, f"{r['bytes_per_slot']:.1f}",
+             r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}", "`memory.json`"],
+            [f"per seed, its {r.get('seed_buffer_size', 1_000_000):,}-slot buffer included "
+             "(`fast`)", date, f"{r['bytes_per_seed']:,}", f"{r['seed_data_bytes']:,}",
+             f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}", "`memory.json`"]]
+    table = _table(["quantity", "date", "peak bytes", "data bytes", "ratio", "results"], rows)
+    if "estimate_over_peak" not in r:
+        return table
+    runs = [(f"1 seed, {int(b):,} slots", m) for b, m in r["buffers"].items()] + [
+        (f"{s} seed{'s' * (int(s) > 1)}, {r['seed_buffer_size']:,} slots", m)
+        for s, m in r["seeds"].items()]
+    return table + "\n" + _table(
+        ["run (`fast`)", "measured peak MB", "estimate MB", "estimate / peak"],
+        [[name, f"{m['peak_host_bytes'] / 1e6:,.0f}", f"{m['memory_model_peak_bytes'] / 1e6:,.0f}",
+          f"{m['memory_model_peak_bytes'] / m['peak_host_bytes']:.2f}"] for name, m in runs])
 
 
 # The commands that write the results files of the tables below (BENCHMARKS.md's sizes).
@@ -532,6 +542,19 @@ def _target_progress():
                     None if missing else all(r["followed_host_pct"] <= 5 for r in results))]
 
 
+def _target_memory():
+    names = [n for n in ("memory", "memory-h100") if _find(n)]
+    if not names:
+        return None
+    ratios = {n: _load(n)["result"].get("estimate_over_peak", {}) for n in names}
+    low = {n: min(r.values()) for n, r in ratios.items() if r}
+    high = {n: max(r.values()) for n, r in ratios.items() if r}
+    figure = "; ".join(f"`{n}`: {low[n]:.2f}-{high[n]:.2f} over {len(ratios[n])} runs"
+                       for n in low) or "no estimate recorded"
+    met = bool(low) and all(0.75 <= low[n] and high[n] <= 1.25 for n in low)
+    return names, [(figure, met if len(low) == 2 else (None if met else False))]
+
+
 def _target_parallel():
     names = _parallel_files()
     if not names:
@@ -604,6 +627,8 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("GPU: ≥ 3M env steps/s", "Environment throughput", _target_env_gpu, 0),
     ("Following a run (progress, TensorBoard, checkpoints): ≤ 5 % of its time on the host",
      "Following a run", _target_progress, 0),
+    ("Memory: the estimate (`sac_jax.memory`) within 25 % of the measured peak, 1 to 64 seeds, "
+     "10^4 to 10^7 slots (CPU: peak RSS; H100: peak device bytes)", "Memory", _target_memory, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
      "Several devices", _target_parallel, 0),
     ("GPU: a sweep of 64 settings x 4 seeds of `fast` in one program, wall time ≤ 3x one "

@@ -50,13 +50,14 @@ def _is_key(leaf) -> bool:
     return jax.dtypes.issubdtype(leaf.dtype, jax.dtypes.prng_key)
 
 
-def to_host(tree: Any) -> List[np.ndarray]:
+def to_host(tree: Any, copy: bool = True) -> List[np.ndarray]:
     """The leaves of `tree` as `save` stores them: numpy arrays of their own (copies: on a CPU
-    a fetched array may share memory with a device buffer that a later donation reuses), PRNG
-    keys as their key data. `save(d, s, to_host(tree), meta)` stores what `save(d, s, tree,
-    meta)` does."""
+    a fetched array may share memory with a device buffer that a later donation reuses; not
+    `copy`, views where the device's memory is the host's, for a save before the state changes
+    again), PRNG keys as their key data. `save(d, s, to_host(tree), meta)` stores what
+    `save(d, s, tree, meta)` does."""
     leaves = [jax.random.key_data(x) if _is_key(x) else x for x in jax.tree_util.tree_leaves(tree)]
-    return [np.array(x) for x in jax.device_get(leaves)]
+    return [np.array(x) if copy else np.asarray(x) for x in jax.device_get(leaves)]
 
 
 def _crc32(array: np.ndarray) -> int:
@@ -83,7 +84,8 @@ def _manager(directory: str, create: bool):
 
 
 def save(directory: str, step: int, tree: Any, meta: dict) -> None:
-    """Writes `tree` (a pytree of arrays, or `to_host`'s leaves) and the JSON-able `meta` as
+    """Writes `tree` (a pytree of arrays, or `to_host`'s leaves, stored as they are: no further
+    copy of a state's replay data) and the JSON-able `meta` as
     step `step` of the checkpoint directory `directory` (created if missing), keeping the
     newest `KEEP` steps; a step already there is replaced. Synchronous: `CheckpointWriter`
     in `sac_jax.run_checkpoint` calls it off the training's critical path. A filesystem without
@@ -91,7 +93,8 @@ def save(directory: str, step: int, tree: Any, meta: dict) -> None:
     anything is written, with OSError(ENOSPC): orbax, failing part-way, leaves a half-written
     step and prints pages of tracebacks from its threads. A write that fails anyway raises
     (OSError, or tensorstore's ValueError) and leaves the earlier steps intact."""
-    leaves = to_host(tree)
+    owned = isinstance(tree, list) and all(type(x) is np.ndarray for x in tree)
+    leaves = tree if owned else to_host(tree)
     need = sum(x.nbytes for x in leaves) + ROOM_FOR_METADATA
     free = shutil.disk_usage(_existing_ancestor(directory)).free
     if free < need:

@@ -1,32 +1,40 @@
 """What a run needs in memory, what is available, and the refusal of a run that cannot fit.
 
-The need comes from the shapes of the run's real initial state (`jax.eval_shape` of the vmapped
+The run's data comes from the shapes of its real initial state (`jax.eval_shape` of the vmapped
 `init`, nothing computed or allocated), in two parts:
 
     replay  the replay buffers' data, all seeds (`RunnerState.buffer.data`)
     state   everything else a run carries: parameters, target networks, optimiser states,
             environments, the delivered actor, keys, metric sums and outputs
 
-A run holds its state once while training, and while a checkpoint is written, a copy:
-on an accelerator with room for it, a device copy of the whole state (`run_checkpoint.CheckpointWriter`,
-so the device trains on while the copy is written); on the CPU, where fetching device memory to
-the host is a view, a host copy of the state with the replay slots filled so far, at most
-`min(run_steps, buffer_size)` of each seed's buffer. So
+A run holds its state once while training, and while a checkpoint is written, a copy where
+there is room for it (`copy_fits`: the copy and as much again free), so that training goes on
+during the write (`run_checkpoint.CheckpointWriter`): a copy of the state with the replay slots
+filled so far (`stored_slots`: at most `min(run_steps, buffer_size)` of each seed's buffer; on
+an accelerator rounded up to a power of two), on the device that holds the state (the host's
+memory, on the CPU). Without room, a checkpoint is written without a copy, while training
+waits (on the CPU, straight from the state; from an accelerator, fetched to host memory). Once the program is compiled, two more
+parts are known: the chunk's `temporaries` (XLA's memory analysis of the compiled program:
+activations of the sampled batches, environment steps in flight), and on the CPU the
+`process`'s own resident memory before the state is made (Python, JAX, the compiled
+programs: about 0.9 GB for the MJX tasks, measured, not modelled). So
 
-    peak = replay + state + checkpoint copy
-    checkpoint copy = state + replay                                (accelerator)
-                    = state + replay * min(run_steps, buffer_size) / buffer_size   (CPU)
+    peak = process + replay + state + checkpoint copy + temporaries
+    checkpoint copy = state + replay * stored_slots / buffer_size
+                    = 0                                   (where the copy does not fit)
 
-Measured on the CPU (`fast`, 1 seed, peak RSS at 4M and 8M replay slots): 44.3 bytes per
-44-byte slot. The process's own memory (JAX, XLA, the compiled programs: about 0.8 GB on the
-CPU) comes on top and is not modelled. The available memory is the host's (`MemAvailable` of
+Measured on the CPU (`fast`, 1 seed, peak RSS at 4M and 8M replay slots): 44.5 bytes per
+44-byte slot (benchmarks/memory.py, BENCHMARKS.md, which also holds the estimate against the
+measured peak). Before compiling (`check`), `process` and `temporaries` are left out: the
+available memory already excludes what the process holds, and the data is what grows with
+`--seeds` and `--buffer-size`. The available memory is the host's (`MemAvailable` of
 /proc/meminfo) on a CPU, the device's free memory (`memory_stats()`: bytes_limit -
 bytes_in_use) on an accelerator.
 """
-
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import Optional, Tuple
 
 import jax
@@ -40,40 +48,84 @@ class MemoryRefused(ValueError):
 @dataclasses.dataclass(frozen=True)
 class MemoryNeed:
     """Bytes of a run of `seeds` seeds: `replay` and `state` held once, `checkpoint` the copy a
-    checkpoint takes (see the module docstring), and `peak`, their sum."""
+    checkpoint takes, `temporaries` of the compiled chunk and the `process`'s own (0 where not
+    known; see the module docstring), and `peak`, their sum."""
 
     seeds: int
     replay: int
     state: int
     checkpoint: int
+    temporaries: int = 0
+    process: int = 0
 
     @property
     def peak(self) -> int:
-        return self.replay + self.state + self.checkpoint
+        return self.replay + self.state + self.checkpoint + self.temporaries + self.process
 
     @property
     def per_seed(self) -> int:
         return self.peak // self.seeds
 
 
-def _bytes(tree) -> int:
+def tree_bytes(tree) -> int:
     """Bytes of the arrays (or ShapeDtypeStructs) of `tree` (a PRNG key counts its key data)."""
     return sum(x.size * x.dtype.itemsize for x in jax.tree_util.tree_leaves(tree))
 
 
-def need(config: SACConfig, seeds: int, platform: Optional[str] = None) -> MemoryNeed:
+def stored_slots(filled: int, capacity: int, platform: str) -> int:
+    """Replay slots of each seed a checkpoint's copy holds when `filled` are filled: on the CPU
+    exactly those (cut from a view on the host); on an accelerator, where the slots are cut on
+    the device before anything is copied and each new length compiles a small slicing program,
+    `filled` rounded up to a power of two (at most `capacity`; the slots past `filled` are
+    zeros), so a run compiles at most log2(capacity) of them."""
+    if platform == "cpu" or filled <= 0:
+        return max(filled, 0)
+    return min(capacity, 1 << (filled - 1).bit_length())
+
+
+def copy_fits(copy: int, free: Optional[int]) -> bool:
+    """Whether a checkpoint's copy of `copy` bytes is made where `free` bytes are free (None:
+    unknown): room for it and as much again (`run_checkpoint.CheckpointWriter`); else the
+    checkpoint is written without a copy."""
+    return free is None or 2 * copy <= free
+
+
+def need(config: SACConfig, seeds: int, platform: Optional[str] = None, temporaries: int = 0,
+         process: int = 0, available: Optional[int] = None) -> MemoryNeed:
     """The memory a run of `seeds` seeds of `config` needs on `platform` (default: JAX's
-    default backend), from `jax.eval_shape` of its initial state."""
+    default backend), from `jax.eval_shape` of its initial state, with the `temporaries` and
+    `process` bytes given (`compiled_parts`); with the bytes `available` before the run, a
+    checkpoint's copy counts only where it `copy_fits` beside the run's data."""
     from sac_jax.run_dir import state_template
 
     state = state_template(config, seeds)
-    replay = _bytes(state.buffer.data)
-    rest = _bytes(state) - replay
-    if (platform or jax.default_backend()) == "cpu":
-        copied = replay * min(config.run_steps, config.buffer_size) // config.buffer_size
-    else:
-        copied = replay
-    return MemoryNeed(seeds=seeds, replay=replay, state=rest, checkpoint=rest + copied)
+    replay = tree_bytes(state.buffer.data)
+    rest = tree_bytes(state) - replay
+    slots = stored_slots(min(config.run_steps, config.buffer_size), config.buffer_size,
+                         platform or jax.default_backend())
+    copy = rest + replay * slots // config.buffer_size
+    if available is not None and not copy_fits(copy, available - replay - rest - temporaries):
+        copy = 0
+    return MemoryNeed(seeds=seeds, replay=replay, state=rest, checkpoint=copy,
+                      temporaries=temporaries, process=process)
+
+
+def compiled_parts(program, device: Optional[jax.Device] = None) -> Tuple[int, int]:
+    """(temporaries, process) of `need` once `program` (the compiled chunk: a
+    `jax.stages.Compiled` or `sac_jax.program_cache.CachedProgram`) exists: XLA's temporary
+    bytes of it (0 where the backend does not say), and on a CPU device this process's resident
+    bytes now (/proc/self/statm; 0 elsewhere: a device's free memory excludes them already)."""
+    try:
+        temporaries = int(program.memory_analysis().temp_size_in_bytes)
+    except Exception:  # a backend without the analysis
+        temporaries = 0
+    if (device or jax.local_devices()[0]).platform != "cpu":
+        return temporaries, 0
+    try:
+        with open("/proc/self/statm") as f:
+            return temporaries, int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return temporaries, 0
 
 
 def _host_available() -> Optional[int]:
@@ -102,24 +154,31 @@ def gigabytes(n: int) -> str:
     return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.1f} MB"
 
 
+def _parts(run: MemoryNeed) -> str:
+    """'replay 1.7 GB + 0.2 GB state + 0.3 GB at a checkpoint' (or, without room for the
+    copy, 'replay 1.7 GB + 0.2 GB state, checkpoints written in line without a copy')."""
+    data = f"replay {gigabytes(run.replay)} + {gigabytes(run.state)} state"
+    if run.checkpoint:
+        return f"{data} + {gigabytes(run.checkpoint)} at a checkpoint"
+    return f"{data}, checkpoints written in line without a copy"
+
+
 def describe(run: MemoryNeed, free: Optional[int], where: str) -> str:
     """'replay 1.7 GB + 0.2 GB state + 0.3 GB at a checkpoint = 2.2 GB of 21.9 GB available on
     cpu'."""
     have = "unknown memory" if free is None else f"{gigabytes(free)} available"
-    return (f"replay {gigabytes(run.replay)} + {gigabytes(run.state)} state + "
-            f"{gigabytes(run.checkpoint)} at a checkpoint = {gigabytes(run.peak)} of {have} on "
-            f"{where}")
+    return f"{_parts(run)} = {gigabytes(run.peak)} of {have} on {where}"
 
 
 def check(config: SACConfig, seeds: int) -> str:
     """The run's memory line (`describe`); `MemoryRefused` (one line: the need, what is
-    available, the flags that shrink it) if its peak exceeds the available memory."""
+    available, the flags that shrink it) if its peak exceeds the available memory, a
+    checkpoint's copy left out where it does not fit (`copy_fits`)."""
     free, where = available()
-    run = need(config, seeds, where)
+    run = need(config, seeds, where, available=free)
     if free is not None and run.peak > free:
         raise MemoryRefused(
             f"{seeds} seed(s) of buffer_size={config.buffer_size} need {gigabytes(run.peak)} "
-            f"(replay {gigabytes(run.replay)} + {gigabytes(run.state)} state + "
-            f"{gigabytes(run.checkpoint)} at a checkpoint), {gigabytes(free)} available on "
-            f"{where}: lower --buffer-size or --seeds (or --no-memory-check to try anyway)")
+            f"({_parts(run)}), {gigabytes(free)} available on {where}: lower --buffer-size or "
+            "--seeds (or --no-memory-check to try anyway)")
     return describe(run, free, where)

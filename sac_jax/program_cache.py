@@ -109,7 +109,7 @@ def cached_compile(fn: Callable, name: str, args: Sequence[Any], result: Any, di
     """`fn` compiled for arguments shaped like `args`, its traced program read from `directory`
     if an earlier process left it there, else traced now and stored there. `result` has the
     tree structure of what `fn` returns (e.g. the first argument, for a step function);
-    `donate_first` donates the first argument's buffers. Returns `program(*args)`."""
+    `donate_first` donates the first argument's buffers. Returns a `CachedProgram`."""
     avals = jax.tree_util.tree_map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), list(args))
     leaves, treedef = jax.tree_util.tree_flatten(avals)
     result_tree = jax.tree_util.tree_structure(result)
@@ -133,5 +133,19 @@ def cached_compile(fn: Callable, name: str, args: Sequence[Any], result: Any, di
     donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
     compiled = jax.jit(exported.call, donate_argnums=donated).lower(*leaves).compile(
         compiler_options=compiler_options)
-    return lambda *args: jax.tree_util.tree_unflatten(
-        result_tree, compiled(*jax.tree_util.tree_leaves(list(args))))
+    return CachedProgram(compiled, result_tree)
+
+
+class CachedProgram:
+    """What `cached_compile` returns: `program(*args)` calls the compiled program on the
+    caller's pytrees; `memory_analysis()` is XLA's, as of `jax.stages.Compiled`."""
+
+    def __init__(self, compiled: jax.stages.Compiled, result_tree):
+        self._compiled, self._result_tree = compiled, result_tree
+
+    def __call__(self, *args):
+        return jax.tree_util.tree_unflatten(
+            self._result_tree, self._compiled(*jax.tree_util.tree_leaves(list(args))))
+
+    def memory_analysis(self):
+        return self._compiled.memory_analysis()

@@ -238,6 +238,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         memory.check(config, seeds)
     t0 = time.perf_counter()
     parts, init, chunk, finite, sharding = compiled_program(config, seeds, tuple(values))
+    temporaries, process = memory.compiled_parts(chunk)  # before the state exists
+    model = memory.need(config, seeds, temporaries=temporaries, process=process)
     if resume is None:
         keys = jax.random.split(jax.random.key(seed), seed_keys)
         if len(configs) > 1:  # every setting trains the same keys
@@ -312,20 +314,22 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     metrics["steps_per_s"] = metrics["env_steps"] / metrics["wall_s"]
     summary = dict(run_summary(config, metrics, points, position,
                                jax.device_get(runner.delivered.env_steps),
-                               jax.device_get(runner.stopped)),
+                               jax.device_get(runner.stopped), model),
                    seeds=seeds, status=status, message=message,
                    non_finite_at_step=[position.non_finite.get(r) for r in range(seeds)])
     return RunResult(runner, metrics, points, status, message, position, summary)
 
 
 def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, position: Position,
-                delivered_steps: np.ndarray, stopped: np.ndarray) -> dict:
+                delivered_steps: np.ndarray, stopped: np.ndarray, model: memory.MemoryNeed
+                ) -> dict:
     """summary.json's figures of a run: per seed, the last evaluation of the last actor
     (`eval_return`), the delivered actor's confirmed return (`delivered_return`) and the step
     and training seconds at which it was selected, and the step, training seconds and seconds
     from process start at which the delivered actor first reached the solved return (None
     where it has not); for all seeds, the training and process seconds until the last of them
-    was solved (None unless all were)."""
+    was solved (None unless all were); the peak memory measured and `model`'s estimate of it
+    (`sac_jax.memory`)."""
     threshold = envs.spec(config.env).solved_return
     steps = metrics["env_steps"][0, :points]
     before_training = position.startup_s + position.compile_s
@@ -356,7 +360,8 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
         "peak_host_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
         "peak_device_bytes": (jax.local_devices()[0].memory_stats() or {}).get(
             "peak_bytes_in_use"),
-        "memory_model_peak_bytes": memory.need(config, len(stopped)).peak,
+        "memory_model_peak_bytes": model.peak,
+        "memory_model": dataclasses.asdict(model),
         "startup_s": round(position.startup_s, 3),
         "compile_s": round(position.compile_s, 3),
         "run_s": round(position.run_s, 3),

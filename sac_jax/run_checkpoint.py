@@ -19,7 +19,7 @@ from typing import Callable, List, Optional, Tuple
 import jax
 import numpy as np
 
-from sac_jax import checkpoint, legacy_checkpoint
+from sac_jax import checkpoint, legacy_checkpoint, memory
 from sac_jax.background import BackgroundWrites
 from sac_jax.config import SACConfig
 from sac_jax.position import Position
@@ -53,14 +53,41 @@ def _buffer_filled_to(runner: RunnerState, filled: int) -> RunnerState:
     return runner.replace(buffer=runner.buffer.replace(data=data))
 
 
-def _stored(runner: RunnerState) -> Tuple[list, int]:
-    """(`checkpoint.to_host` leaves of the state to store, filled replay slots). A ring buffer
-    fills its slots in order from slot 0 and the rest stay zero, so only the filled slots
-    [0, size) of the replay buffers are stored (the seeds train in lock-step: one size)."""
-    filled = int(np.max(jax.device_get(runner.buffer.size)))
+def _filled(runner: RunnerState) -> int:
+    """The replay slots filled (the seeds train in lock-step: one size)."""
+    return int(np.max(jax.device_get(runner.buffer.size)))
+
+
+def _stored(runner: RunnerState, copy: bool = True) -> Tuple[list, int]:
+    """(`checkpoint.to_host` leaves of the state to store, copies unless not `copy`; filled
+    replay slots). A ring buffer fills its slots in order from slot 0 and the rest stay zero,
+    so only the filled slots [0, size) of the replay buffers are stored."""
+    filled = _filled(runner)
     # cut on the host: on the device, a slice of a new length compiles a new program each time
     runner = runner.replace(buffer=jax.device_get(runner.buffer))
-    return checkpoint.to_host(_buffer_filled_to(runner, filled)), filled
+    return checkpoint.to_host(_buffer_filled_to(runner, filled), copy), filled
+
+
+def _copy_bytes(runner: RunnerState) -> int:
+    """Bytes of `_stored`'s copy of `runner`: the state with its filled replay slots."""
+    filled, capacity = _filled(runner), runner.buffer.data.obs.shape[1]
+    replay = memory.tree_bytes(runner.buffer.data)
+    rest = memory.tree_bytes(runner) - replay
+    return rest + replay * filled // capacity
+
+
+def _device_copy(runner: RunnerState) -> RunnerState:
+    """A copy of `runner` in new device buffers, its replay arrays (seeds, C, ...) cut on the
+    device to their first `memory.stored_slots` slots (which hold the filled ones): the next
+    chunk, which takes over the state's own buffers, leaves it as it is."""
+    capacity = runner.buffer.data.obs.shape[1]
+    slots = memory.stored_slots(_filled(runner), capacity, "accelerator")
+    data = runner.buffer.data
+    data = (jax.tree_util.tree_map(lambda x: x[:, :slots], data) if slots < capacity
+            else jax.device_put(data, may_alias=False))  # a slice is a new buffer already
+    rest = jax.device_put(runner.replace(buffer=runner.buffer.replace(data=None)),
+                          may_alias=False)
+    return rest.replace(buffer=rest.buffer.replace(data=data))
 
 
 def _write(run_dir: str, leaves: list, filled: int, position: Position) -> None:
@@ -91,21 +118,26 @@ def save_checkpoint(run_dir: str, runner: RunnerState, position: Position) -> No
     _write(run_dir, *_stored(runner), position)
 
 
-def _room_for_copy(tree) -> bool:
-    """Whether every device holding part of `tree` has free memory for twice that part: a copy,
-    and as much again left for the next chunk. True where the backend reports no memory limit
-    (the CPU, whose device memory is the host's)."""
+def _room_for_copy(runner: RunnerState) -> bool:
+    """Whether every device holding part of `runner` has free memory for twice its part of
+    `_device_copy(runner)` (`memory.copy_fits`: a copy, and as much again left for the next
+    chunk). True where the backend reports no memory limit (the CPU, whose device memory is
+    the host's)."""
+    capacity = runner.buffer.data.obs.shape[1]
+    kept = memory.stored_slots(_filled(runner), capacity, "accelerator") / capacity
+    replay = {id(leaf) for leaf in jax.tree_util.tree_leaves(runner.buffer.data)}
     need = collections.Counter()
-    for leaf in jax.tree_util.tree_leaves(tree):
+    for leaf in jax.tree_util.tree_leaves(runner):
         if not isinstance(leaf, jax.Array):
             continue  # host memory
         shard = leaf.nbytes * math.prod(leaf.sharding.shard_shape(leaf.shape)) // max(
             1, math.prod(leaf.shape))
         for device in leaf.sharding.addressable_devices:
-            need[device] += shard
+            need[device] += int(shard * kept) if id(leaf) in replay else shard
     for device, nbytes in need.items():
         stats = device.memory_stats() or {}
-        if "bytes_limit" in stats and stats["bytes_limit"] - stats["bytes_in_use"] < 2 * nbytes:
+        if "bytes_limit" in stats and not memory.copy_fits(
+                nbytes, stats["bytes_limit"] - stats["bytes_in_use"]):
             return False
     return True
 
@@ -119,8 +151,9 @@ def _on_host(tree) -> bool:
 
 class CheckpointWriter(BackgroundWrites):
     """`save_checkpoint` off the training's critical path. `save(runner, position)` only queues
-    a copy of the state in new device buffers (`jax.device_put(..., may_alias=False)`, which
-    compiles nothing; the next chunk may then take over the state's own) and returns; the
+    a copy of the state in new device buffers (`_device_copy`: the replay slots filled so far,
+    cut on the device, and the rest by `jax.device_put(..., may_alias=False)`; the next chunk
+    may then take over the state's own) and returns; the
     background thread copies it to host memory and writes it while the device trains on. When
     saves come faster than writes, the thread writes the newest state saved and skips the older
     ones waiting. A device without room for the copy (`_room_for_copy`) gets none: `save` then
@@ -128,9 +161,10 @@ class CheckpointWriter(BackgroundWrites):
     in line. (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run;
     copying to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.) A state on
     the CPU is always fetched in line: there the fetch is a view, and the copy the checkpoint
-    keeps holds the filled replay slots only, where a device copy would hold every slot
-    (`sac_jax.memory`). A write that fails raises `CheckpointWriteError` from the next `save`
-    or from `close`.
+    keeps holds the filled replay slots only, where a device copy would hold every slot; where
+    host memory has no room for that copy (`sac_jax.memory.copy_fits`), the state is written
+    in line from the view, with no copy. A write that fails raises `CheckpointWriteError` from
+    the next `save` or from `close` (from `save` itself, written in line).
 
     A state is saved at most every `min_interval_s` seconds (the first that long after the
     writer is made), and always where the run ends (`position.ends_run`: its last point, or
@@ -162,12 +196,16 @@ class CheckpointWriter(BackgroundWrites):
         self._last_start = time.perf_counter()
         position = position.copy()
         if not _on_host(runner) and _room_for_copy(runner):
-            state = jax.device_put(runner, may_alias=False)
+            state = _device_copy(runner)
             write = lambda: save_checkpoint(self._run_dir, state, position)
         else:  # one host copy at a time: none being written, the one waiting dropped first
             self._collect(wait=True)
             with self._lock:
                 self._newest = None
+            if _on_host(runner) and not memory.copy_fits(_copy_bytes(runner),
+                                                          memory.available()[0]):
+                _write(self._run_dir, *_stored(runner, copy=False), position)  # in line
+                return
             leaves, filled = _stored(runner)
             write = lambda: _write(self._run_dir, leaves, filled, position)
         with self._lock:

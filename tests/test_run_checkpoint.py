@@ -14,7 +14,7 @@ import jax
 import numpy as np
 import pytest
 
-from sac_jax import checkpoint, run_checkpoint
+from sac_jax import checkpoint, memory, run_checkpoint
 from sac_jax.position import Position
 from tests.saved_runs import newest_checkpoint, two_checkpoints
 
@@ -102,7 +102,8 @@ def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monke
     """The device buffers are deleted (as the next chunk's donation does) and the position
     changed right after `save`: the checkpoint still holds the state and position of the call,
     array for array what `save_checkpoint` writes, whether the device had room for a copy of
-    the state or not."""
+    the state or not (the paths of an accelerator, forced here)."""
+    monkeypatch.setattr(run_checkpoint, "_on_host", lambda tree: False)
     monkeypatch.setattr(run_checkpoint, "_room_for_copy", lambda tree: room)
     _, saved = run
     run_checkpoint.save_checkpoint(str(tmp_path / "direct"), saved, Position(chunks_done=3, env_steps=9))
@@ -115,6 +116,22 @@ def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monke
     position.chunks_done = 4
     writer.close()
     _same_checkpoint(str(tmp_path / "writer"), str(tmp_path / "direct"), 9)
+
+
+def test_a_device_copy_holds_the_filled_slots_rounded_up_to_a_power_of_two(run):
+    """40 of 4000 slots filled: the copy holds 64 (`memory.stored_slots`), the 40 filled ones
+    as they are; every other array whole."""
+    _, saved = run
+    copy = run_checkpoint._device_copy(saved)
+    for kept, whole in zip(jax.tree_util.tree_leaves(copy.buffer.data),
+                           jax.tree_util.tree_leaves(saved.buffer.data), strict=True):
+        assert kept.shape == whole.shape[:1] + (64,) + whole.shape[2:]
+        np.testing.assert_array_equal(np.asarray(kept)[:, :40], np.asarray(whole)[:, :40])
+    _assert_same(copy.replace(buffer=copy.buffer.replace(data=None)),
+                 saved.replace(buffer=saved.buffer.replace(data=None)))
+    assert [memory.stored_slots(n, 4000, "gpu") for n in (0, 1, 40, 64, 65, 3000, 4000)] == [
+        0, 1, 64, 64, 128, 4000, 4000]
+    assert memory.stored_slots(40, 4000, "cpu") == 40
 
 
 def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
@@ -179,6 +196,27 @@ def test_on_the_cpu_a_save_copies_the_filled_replay_slots_only(run, tmp_path, mo
     assert filled == 40  # replay leaves (seeds, slots, ...): 40 slots kept, none of 4000
     assert any(leaf.ndim > 1 and leaf.shape[1] == 40 for leaf in leaves)
     assert not any(leaf.ndim > 1 and leaf.shape[1] == 4000 for leaf in leaves)
+    run_checkpoint.save_checkpoint(str(tmp_path / "direct"), saved, Position(chunks_done=3, env_steps=5))
+    _same_checkpoint(str(tmp_path / "writer"), str(tmp_path / "direct"), 5)
+
+
+def test_on_the_cpu_without_room_for_the_copy_a_save_writes_the_state_itself_in_line(
+        run, tmp_path, monkeypatch):
+    """Host memory with no room for the copy (`memory.copy_fits`): `save` writes before it
+    returns, from the state's own memory (the replay leaves it writes share it), and the
+    checkpoint is the one `save_checkpoint` writes."""
+    kept = []
+    write = run_checkpoint._write
+    monkeypatch.setattr(run_checkpoint, "_write", lambda directory, leaves, filled, position: (
+        kept.append(leaves), write(directory, leaves, filled, position)))
+    monkeypatch.setattr(memory, "available", lambda device=None: (1000, "cpu"))
+    _, saved = run
+    writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"), min_interval_s=0)
+    writer.save(saved, Position(chunks_done=3, env_steps=5))
+    assert len(kept) == 1 and run_checkpoint.saved_steps(str(tmp_path / "writer")) == [5]
+    writer.close()
+    obs = np.asarray(saved.buffer.data.obs)
+    assert any(np.shares_memory(leaf, obs) for leaf in kept[0])
     run_checkpoint.save_checkpoint(str(tmp_path / "direct"), saved, Position(chunks_done=3, env_steps=5))
     _same_checkpoint(str(tmp_path / "writer"), str(tmp_path / "direct"), 5)
 
