@@ -256,6 +256,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
 
     def points_reached(state) -> int:
         _wait(state.iteration, should_stop, stop_grace_s)
+        # raises the program's error, e.g. RESOURCE_EXHAUSTED for an allocation that failed
+        # (fetching an output that did not fail, such as the iteration, then waits forever)
+        jax.block_until_ready(state)
         return points_done(config, state.iteration)
 
     def all_stopped(state) -> bool:

@@ -31,10 +31,12 @@ STARTED = time.perf_counter()  # process start, for the times to a solved policy
 
 import dataclasses  # noqa: E402
 import os  # noqa: E402
+import shutil  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
 from typing import Annotated, Literal, Optional, Sequence  # noqa: E402
 
+import jax  # noqa: E402
 import tyro  # noqa: E402
 
 
@@ -227,6 +229,13 @@ def main(argv=None) -> int:
     except run_checkpoint.CheckpointWriteError as error:  # e.g. a full disk
         print(f"error: {error}; {_kept(out)}", file=sys.stderr, flush=True)
         return 1
+    except jax.errors.JaxRuntimeError as error:
+        if "RESOURCE_EXHAUSTED" not in str(error):
+            raise
+        print(f"error: out of memory on {jax.local_devices()[0].platform} "
+              f"({_first_line(error)}): lower --buffer-size or --seeds; {_left(out, resume)}",
+              file=sys.stderr, flush=True)
+        return 1
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
         name = signal.Signals(stop.signal or signal.SIGINT).name
         why = (f"{name}: {error}; stopped without it" if isinstance(error, DeviceBusy)
@@ -249,6 +258,22 @@ def main(argv=None) -> int:
         return code
     print(f"error: {result.message}; {_kept(out)}", file=sys.stderr, flush=True)
     return 1
+
+
+def _first_line(error: Exception) -> str:
+    """The first line of an XLA error, without its status code: "Out of memory while trying
+    to allocate 5.26GiB with allocator GPU_0_bfc on device 0"."""
+    line = str(error).strip().splitlines()[0]
+    return line.split(": ", 1)[-1].split(" [", 1)[0][:200]
+
+
+def _left(out: str, resume) -> str:
+    """`_kept`, after removing a new run's directory that holds no checkpoint (nothing in it
+    is worth keeping, and its name is free again for a rerun)."""
+    if resume is None and not run_checkpoint.saved_steps(out):
+        shutil.rmtree(out, ignore_errors=True)
+        return f"{out} removed"
+    return _kept(out)
 
 
 def _kept(out: str) -> str:

@@ -407,3 +407,18 @@ def test_a_second_sigint_during_the_final_save_stops_with_one_line_and_a_whole_c
                        f"2000) is kept: continue with --resume {out}"), err
     assert run_checkpoint.saved_steps(out) == [2000]
     run_checkpoint.load_checkpoint(out)  # whole: it loads
+
+
+# ---------------------------------------------------------------- memory
+def test_a_run_out_of_device_memory_ends_in_one_line_and_leaves_nothing(tmp_path, capsys):
+    """Replay buffers the device cannot allocate (the memory check overridden; here 2 seeds of
+    2 x 10^9 slots, 144 GB of host memory): XLA's RESOURCE_EXHAUSTED is one line naming it and the flags that shrink the
+    run, exit 1, and the new run's directory, which holds no checkpoint, is removed."""
+    out = str(tmp_path / "huge")
+    assert train_script.main(SMALL_RUN + ["--seeds", "2", "--buffer-size", "2000000000",
+                                          "--no-memory-check", "--out", out]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: out of memory on cpu (Out of memory "
+                                                   "allocating "), err
+    assert err.endswith(f": lower --buffer-size or --seeds; {out} removed\n"), err
+    assert os.listdir(tmp_path) == []
