@@ -17,7 +17,6 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import functools
-import resource
 import time
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -360,7 +359,7 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
         "all_solved_wall_s": wall(slowest),
         "all_solved_process_s": process(slowest),
         "stopped": [bool(x) for x in np.ravel(stopped)],
-        "peak_host_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+        "peak_host_bytes": memory.peak_resident(),
         "peak_device_bytes": (jax.local_devices()[0].memory_stats() or {}).get(
             "peak_bytes_in_use"),
         "memory_model_peak_bytes": model.peak,
