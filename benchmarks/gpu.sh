@@ -4,6 +4,7 @@
 # .whl/ (see BENCHMARKS.md), brax and its imported needs too (brax, jaxopt, ml_collections,
 # orbax-checkpoint, tensorstore; pillow and scipy come with the image's torchvision and jax),
 # and gymnasium for the PyTorch seed-002 loop (gymnasium, farama-notifications, imageio).
+# `bash benchmarks/gpu_wheels.sh` (brax modes: `... brax`) downloads them at CI's versions.
 # mujoco's viewer wheels (mujoco-studio, pyopengl, glfw) stay out: MJX does not import them,
 # and without their 16 MB our wheels and brax's fit the device tool's 64 MiB carry together (49 MB).
 # Every results file a mode writes (benchmarks/provenance.py's write_result, NAME-KIND.json, e.g.

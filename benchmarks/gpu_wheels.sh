@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Downloads into .whl/ the wheels benchmarks/gpu.sh installs on a lent GPU machine (Python 3.12,
+# x86-64), each at the version installed in the active environment (pip install -e ".[test]"
+# first), so that the device runs what CI tests. .whl/ is git-ignored: carry it (carry: [".whl"]).
+# Usage: bash benchmarks/gpu_wheels.sh            # the delivered, progress and memory modes' set
+#        bash benchmarks/gpu_wheels.sh brax       # and brax with its imported needs (brax modes)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
+gast tyro docstring-parser typeguard gymnasium farama-notifications glfw orbax-checkpoint
+tensorstore humanize aiofiles simplejson uvloop prometheus-client tensorboard"
+if [ "${1:-}" = brax ]; then names="$names brax jaxopt ml_collections"; fi
+mkdir -p .whl
+for name in $names; do
+  version=$(python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" "$name")
+  python -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
+    --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 \
+    --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 \
+    --platform manylinux1_x86_64 -d .whl "$name==$version"
+done
+du -sh .whl
