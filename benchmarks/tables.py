@@ -542,6 +542,22 @@ def _target_progress():
                     None if missing else all(r["followed_host_pct"] <= 5 for r in results))]
 
 
+def _target_checkpoint_cost():
+    """Issue 25's bound: a followed run (progress, TensorBoard, checkpoints) over the bare
+    chunked run, on the CPU and a 256-seed H100 run."""
+    names = [n for n in [_find(f"progress_overhead-{p}-cpu") for p in PROGRESS_CPU]
+             + [_find("progress_overhead-fast-h100")] if n]
+    if not names:
+        return None
+    results = [(n, _load(n)["result"]) for n in names]
+    figure = ", ".join(f"{'H100' if n.endswith('h100') else 'CPU'} `{r['preset']}` "
+                       f"{r['seeds']} seed(s) {r['overhead_pct_followed_vs_chunks']:+.1f} %"
+                       for n, r in results)
+    met = all(r["overhead_pct_followed_vs_chunks"] <= 2 for _, r in results)
+    gpu = any(n.endswith("h100") and r["seeds"] >= 256 for n, r in results)
+    return names, [(figure, met if gpu or not met else None)]
+
+
 def _target_memory():
     names = [n for n in ("memory", "memory-h100") if _find(n)]
     if not names:
@@ -627,6 +643,8 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("GPU: ≥ 3M env steps/s", "Environment throughput", _target_env_gpu, 0),
     ("Following a run (progress, TensorBoard, checkpoints): ≤ 5 % of its time on the host",
      "Following a run", _target_progress, 0),
+    ("Following a run costs ≤ 2 % of the bare chunked run (followed / chunks), on the CPU "
+     "and on one H100 with 256 seeds", "Following a run", _target_checkpoint_cost, 0),
     ("Memory: the estimate (`sac_jax.memory`) within 25 % of the measured peak, 1 to 64 seeds, "
      "10^4 to 10^7 slots (CPU: peak RSS; H100: peak device bytes)", "Memory", _target_memory, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
