@@ -19,6 +19,7 @@ about 10% run to run, and the single scan and the chunked runs take different nu
 
     python -m benchmarks.progress_overhead                  # the default preset, 1 seed
     python -m benchmarks.progress_overhead --preset pendulum --seeds 4 --repeats 5
+    python -m benchmarks.progress_overhead --seeds 256 --repeats 5 --no-single-scan  # GPU
 
 Printed as one JSON line and written to benchmarks/results/NAME.json (`--name`, default
 progress_overhead-PRESET-KIND: progress_overhead-fast-cpu; command, machine, versions, date).
@@ -49,6 +50,8 @@ def main():
     parser.add_argument("--preset", default=sac_jax.DEFAULT_PRESET, choices=sorted(sac_jax.PRESETS))
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--no-single-scan", action="store_true",
+                        help="only the chunked runs, bare and followed (more repeats in the time)")
     parser.add_argument("--name", default=None, help="results file benchmarks/results/NAME.json "
                         "(default progress_overhead-PRESET-KIND)")
     args = parser.parse_args()
@@ -56,17 +59,21 @@ def main():
     sac_jax.enable_compilation_cache()
     config = sac_jax.PRESETS[args.preset]
     keys = jax.random.split(jax.random.key(0), args.seeds)
-    whole = jax.jit(jax.vmap(sac_jax.make_train(config))).lower(keys).compile()
-    jax.block_until_ready(whole(keys))  # warm-up
+    if not args.no_single_scan:
+        whole = jax.jit(jax.vmap(sac_jax.make_train(config))).lower(keys).compile()
+        jax.block_until_ready(whole(keys))  # warm-up
     run_training(config, seeds=args.seeds)  # compiles and warms up the chunk
-    times = {"single_scan": [], "chunks": [], "followed": []}
+    times = {"chunks": [], "followed": []}
+    if not args.no_single_scan:
+        times["single_scan"] = []
     returns, host = {}, []
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.repeats):
-            start = time.perf_counter()
-            _, metrics = jax.block_until_ready(whole(keys))
-            times["single_scan"].append(time.perf_counter() - start)
-            returns["single_scan"] = np.asarray(metrics["eval_return"])
+            if not args.no_single_scan:
+                start = time.perf_counter()
+                _, metrics = jax.block_until_ready(whole(keys))
+                times["single_scan"].append(time.perf_counter() - start)
+                returns["single_scan"] = np.asarray(metrics["eval_return"])
             result = run_training(config, seeds=args.seeds)
             times["chunks"].append(result.summary["run_s"])
             returns["chunks"] = result.metrics["eval_return"]
@@ -85,6 +92,8 @@ def main():
             print(json.dumps({k: round(v[-1], 3) for k, v in times.items()}), file=sys.stderr)
 
     def overhead(of, over):
+        if over not in times:
+            return None
         return round(100 * (statistics.median(a / b for a, b in zip(times[of], times[over])) - 1), 2)
 
     result = {"preset": args.preset, "seeds": args.seeds, "repeats": args.repeats,
@@ -95,8 +104,8 @@ def main():
               "overhead_pct_followed_vs_chunks": overhead("followed", "chunks"),
               "overhead_pct_chunks_vs_single_scan": overhead("chunks", "single_scan"),
               **{f"{k}_all_s": [round(x, 3) for x in v] for k, v in times.items()},
-              "followed_equals_chunks": bool(np.array_equal(returns["followed"],
-                                                            returns["chunks"])),
+              "followed_equals_chunks": bool(np.array_equal(
+                  returns["followed"], returns["chunks"], equal_nan=True)),
               **{f"{k}_eval_returns": np.round(v.mean(axis=0), 1).tolist()
                  for k, v in returns.items()},
               "device": str(jax.devices()[0])}
