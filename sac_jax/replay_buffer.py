@@ -18,6 +18,9 @@ import jax.numpy as jnp
 class Transition(flax.struct.PyTreeNode):
     """(s, a, r, s', terminated). `action` in environment units; `next_obs` is the true
     observation after the step (the final one on truncation), so targets can bootstrap there.
+    It is stored in every slot although within an episode it repeats the next slot's obs: an
+    exact store of each observation once saves nothing in a fixed-shape buffer (BENCHMARKS.md,
+    "Each observation stored once?", `benchmarks/observation_once.py`).
     Shapes with a batch B: obs (B, O), action (B, A), reward (B,), next_obs (B, O),
     terminated (B,) float32 in {0, 1}."""
 
