@@ -8,11 +8,12 @@ the learning tests read an environment's facts from its spec.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import functools
 import inspect
 from typing import Callable, Literal, Optional
 
-from envs import cartpole
+from envs import cartpole, playground
 from envs.double_pendulum import InvertedDoublePendulum
 from envs.pendulum import Pendulum
 from envs.types import Env
@@ -57,14 +58,22 @@ SPECS = {spec.name: spec for spec in (
 
 
 def registered() -> tuple[str, ...]:
-    """Names accepted by :func:`make`."""
-    return tuple(SPECS)
+    """Names accepted by :func:`make`: ours, then MuJoCo Playground's DeepMind Control Suite
+    tasks as ``playground/<Task>`` (envs/playground.py; they need the ``playground`` extra)."""
+    return tuple(SPECS) + tuple(playground.PREFIX + task for task in playground.TASKS)
 
 
 def spec(name: str) -> EnvSpec:
-    """The `EnvSpec` of environment ``name``; ValueError naming the registered ones."""
+    """The `EnvSpec` of environment ``name``; ValueError naming close registered names."""
+    if name.startswith(playground.PREFIX):
+        task = playground.task_name(name)
+        return EnvSpec(name, playground.PlaygroundTask, playground.SOLVED.get(task), None,
+                       "mujoco")
     if name not in SPECS:
-        raise ValueError(f"unknown environment {name!r}; registered: {', '.join(SPECS)}")
+        close = difflib.get_close_matches(name, registered(), n=3, cutoff=0.6)
+        raise ValueError(f"unknown environment {name!r}; "
+                         + (f"did you mean {', '.join(close)}?" if close
+                            else f"registered: {', '.join(SPECS)} and playground/<Task>"))
     return SPECS[name]
 
 

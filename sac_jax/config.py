@@ -167,8 +167,10 @@ class SACConfig:
 
         import envs  # local import: building a config must not pull MJX at module import
 
-        if self.env not in envs.registered():
-            fail("env", f"unknown environment; known: {list(envs.registered())}")
+        try:
+            envs.spec(self.env)  # close names where it is unknown
+        except ValueError as error:
+            fail("env", str(error))
         choice("variant", VARIANTS)
         choice("init", INITS)
         choice("log_std_mode", LOG_STD_MODES)

@@ -11,6 +11,9 @@
     double-pendulum  `fast`'s settings on InvertedDoublePendulum-v5, stopping a seed once its
               delivered actor is confirmed at the solved return 9000 over 100 episodes (with
               20, one of 4 seeds delivered a policy that fell in one of 10 Gymnasium episodes)
+    CartpoleBalance  `fast`'s settings on MuJoCo Playground's task (the `playground` extra),
+              stopping a seed once its delivered actor is confirmed at 950 of 1000 over 20
+              episodes (the task counts as solved at 900)
 """
 
 from sac_jax.config import SACConfig
@@ -50,5 +53,11 @@ PRESETS = {
         eval_episodes=5, confirm_episodes=100, tau=0.02, actor_lr=3e-3, critic_lr=3e-3,
         alpha_lr=1e-3, actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
         log_prob_correction="exact", stop_when_solved=True),
+    "CartpoleBalance": SACConfig(
+        env="playground/CartpoleBalance", num_envs=8, updates_per_step=4, total_steps=20_480,
+        learning_starts=1_024, buffer_size=20_480, batch_size=256, eval_every=1_024,
+        eval_episodes=5, tau=0.02, actor_lr=3e-3, critic_lr=3e-3, alpha_lr=1e-3,
+        actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
+        log_prob_correction="exact", stop_when_solved=True, stop_return=950.0),
 }
 DEFAULT_PRESET = "fast"

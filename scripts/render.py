@@ -114,7 +114,9 @@ def rollout(policy: sac_jax.SavedPolicy, env, key: jax.Array, steps: int):
     state's and each step's positions, qpos (nq,) for MJX and θ () for Pendulum.
     """
     def pose(data):
-        return data.theta if isinstance(data, PendulumData) else data.qpos
+        if isinstance(data, PendulumData):
+            return data.theta
+        return getattr(data, "data", data).qpos  # a Playground task's State holds its MJX data
 
     @jax.jit  # the parameters are an argument, not constants: the compilation cache keeps it
     def run(actor_params, key):
