@@ -130,31 +130,32 @@ def compiled_parts(program, device: Optional[jax.Device] = None) -> Tuple[int, i
         return temporaries, 0
 
 
+def _proc_bytes(path: str, key: str) -> Optional[int]:
+    """The "key: N kB" entry of a /proc file in bytes; None where it cannot be read."""
+    try:
+        with open(path) as f:
+            for line in f:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
 def peak_resident() -> int:
     """This process's peak resident bytes: /proc/self/status's VmHWM (the high-water mark of
     its own address space). Not `getrusage`'s ru_maxrss, which an exec keeps from the process
     it replaced: a run started by `subprocess` from a 3 GB pytest reported pytest's 3 GB. Where
     /proc is missing, ru_maxrss after all (kilobytes on Linux, bytes on macOS)."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
+    peak = _proc_bytes("/proc/self/status", "VmHWM")
+    if peak is not None:
+        return peak
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak if sys.platform == "darwin" else peak * 1024
 
 
 def _host_available() -> Optional[int]:
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return None
+    return _proc_bytes("/proc/meminfo", "MemAvailable")
 
 
 def available(device: Optional[jax.Device] = None) -> Tuple[Optional[int], str]:

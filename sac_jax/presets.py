@@ -53,11 +53,7 @@ PRESETS = {
         eval_episodes=5, confirm_episodes=100, tau=0.02, actor_lr=3e-3, critic_lr=3e-3,
         alpha_lr=1e-3, actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
         log_prob_correction="exact", stop_when_solved=True),
-    "CartpoleBalance": SACConfig(
-        env="playground/CartpoleBalance", num_envs=8, updates_per_step=4, total_steps=20_480,
-        learning_starts=1_024, buffer_size=20_480, batch_size=256, eval_every=1_024,
-        eval_episodes=5, tau=0.02, actor_lr=3e-3, critic_lr=3e-3, alpha_lr=1e-3,
-        actor_hidden=(64, 64), critic_hidden=(64, 64), log_std_mode="tanh",
-        log_prob_correction="exact", stop_when_solved=True, stop_return=950.0),
 }
+PRESETS["CartpoleBalance"] = PRESETS["fast"].replace(env="playground/CartpoleBalance",
+                                                     stop_return=950.0)
 DEFAULT_PRESET = "fast"
