@@ -147,7 +147,7 @@ def figures(clock, t0, t_end, points, threshold):
 def run_brax(config, seed, clock, threshold):
     from brax.training.agents.sac import train as brax_sac
 
-    env = envs.to_brax(envs.make(config.env))
+    env = envs.to_brax(config.make_env())
     points = []
 
     def progress(step, metrics):

@@ -70,13 +70,12 @@ def our_scores(run: str, seeds: int, episodes: int) -> list:
     jitted `sac_jax.evaluate`, from initial states no training evaluation drew."""
     import jax
 
-    import envs
     import sac_jax
     from sac_jax import run_checkpoint
 
     policy = sac_jax.load_policy(run, 0)
     _, _, runner, _ = run_checkpoint.load_checkpoint(run)
-    env = envs.make(policy.config.env)
+    env = policy.config.make_env()
     evaluate = jax.jit(jax.vmap(lambda params, key: jax.numpy.mean(
         sac_jax.evaluate(policy.agent, env, params, key, episodes))))
     keys = jax.random.split(jax.random.key(20261125), seeds)

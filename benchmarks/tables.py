@@ -558,6 +558,37 @@ def _target_checkpoint_cost():
     return names, [(figure, met if gpu or not met else None)]
 
 
+def _playground_files() -> List[str]:
+    return [n for n in (_find("playground_adapter-cpu"), _gpu("playground_adapter")) if n]
+
+
+def playground() -> str:
+    """Playground's raw task step against our adapter's, per task and backend."""
+    def rows(name, data):
+        where = "CPU" if name.endswith("-cpu") else _machine(data)
+        return [[r["task"], where, r["impl"], f"{r['envs']:,}",
+                 f"{r['steps_per_s']['raw']:,.0f}", f"{r['steps_per_s']['adapter']:,.0f}",
+                 f"{100 * r['overhead']:+.1f} %"] for r in data["result"]["rows"]]
+
+    return _sources([(_find("playground_adapter-cpu"), "python -m benchmarks.playground_adapter"),
+                     (_gpu("playground_adapter"),
+                      "bash benchmarks/gpu.sh playground_adapter --impl jax warp")],
+                    ["task", "machine", "backend", "instances", "raw steps/s",
+                     "adapter steps/s", "adapter overhead"], rows)
+
+
+def _target_playground_adapter():
+    names = _playground_files()
+    if not names:
+        return None
+    worst = max(_load(n)["result"]["worst_overhead"] for n in names)
+    gpu = len(names) > 1
+    return names, [(f"worst {100 * worst:+.1f} % over "
+                    f"{sum(len(_load(n)['result']['rows']) for n in names)} task/backend rows"
+                    + ("" if gpu else " (CPU only)"),
+                    (worst <= 0.05) if gpu else None)]
+
+
 def _target_memory():
     names = [n for n in ("memory", "memory-h100") if _find(n)]
     if not names:
@@ -647,6 +678,8 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
      "and on one H100 with 256 seeds", "Following a run", _target_checkpoint_cost, 0),
     ("Memory: the estimate (`sac_jax.memory`) within 25 % of the measured peak, 1 to 64 seeds, "
      "10^4 to 10^7 slots (CPU: peak RSS; H100: peak device bytes)", "Memory", _target_memory, 0),
+    ("Playground adapter overhead ≤ 5 % of the raw task step (pendulum family, CPU and GPU)",
+     "MuJoCo Playground", _target_playground_adapter, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
      "Several devices", _target_parallel, 0),
     ("GPU: a sweep of 64 settings x 4 seeds of `fast` in one program, wall time ≤ 3x one "
@@ -678,7 +711,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     "presets": presets, "env-gpu": env_gpu, "env-cpu": env_cpu, "evaluation": evaluation,
     "updates-cpu": updates_cpu, "seed-scaling": seed_scaling, "profile": profile,
     "brax": brax, "torch": torch_loop, "progress": progress, "parallel": parallel,
-    "memory": memory, "sweep": sweep}
+    "memory": memory, "sweep": sweep, "playground": playground}
 
 
 def render(text: str) -> str:

@@ -165,7 +165,7 @@ def make_agent(config: SACConfig, observation_size: int, action_size: int,
                     log_std_max=c.log_std_max, hidden_dtype=hidden_dtype),
         critic=CriticEnsemble(hidden_sizes=c.critic_hidden, num_critics=c.num_critics,
                               initializer=c.init, last_layer_init=c.last_layer_init,
-                              hidden_dtype=hidden_dtype),
+                              hidden_dtype=hidden_dtype, layer_norm=c.critic_layer_norm),
         value=(ValueNetwork(hidden_sizes=c.critic_hidden, initializer=c.init,
                             last_layer_init=c.last_layer_init, hidden_dtype=hidden_dtype)
                if c.variant == "v1" else None),

@@ -73,8 +73,6 @@ def stack(configs: Sequence[SACConfig]) -> Dict[str, jax.Array]:
     from configs[i]. The others stay constants of the program, as in a run of one config, so a
     setting trains exactly as a run of its config would (a traced value is rounded alike, but
     XLA folds a constant: reward_scale 1.0 traced differs from the run's by float32 rounding)."""
-    import envs
-
     if not configs:
         raise ValueError("stack: no configs")
     base = configs[0]
@@ -82,7 +80,7 @@ def stack(configs: Sequence[SACConfig]) -> Dict[str, jax.Array]:
         if config.replace(**{name: getattr(base, name) for name in NAMES}) != base:
             raise ValueError("stack: the configs differ in fields other than "
                              f"{list(NAMES)}; one program cannot train them")
-    action_size = envs.make(base.env).action_size
+    action_size = base.make_env().action_size
     each = [of_config(config, action_size) for config in configs]
     return {name: jnp.asarray(values)  # JAX's default float: float32 (float64 with x64)
             for name in NAMES

@@ -48,6 +48,8 @@ class MLP(nn.Module):
     `output_sizes` lists every layer's width, the last one included; `activate_final` applies
     ReLU after the last layer too (a trunk). Layers followed by a ReLU compute in `hidden_dtype`
     (None: the parameters' dtype); a final linear layer in the parameters' dtype.
+    `layer_norm` follows each ReLU by a LayerNorm `LayerNorm_i`, h <- g (h - mean h) /
+    sqrt(var h + 1e-6) + b over the layer's width (Brax's `q_network_layer_norm`).
     """
 
     output_sizes: Sequence[int]
@@ -55,6 +57,7 @@ class MLP(nn.Module):
     last_layer_init: Optional[float] = None
     activate_final: bool = False
     hidden_dtype: Optional[Any] = None
+    layer_norm: bool = False
 
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
@@ -67,6 +70,8 @@ class MLP(nn.Module):
                          dtype=self.hidden_dtype if hidden else None, name=f"Dense_{i}")(x)
             if hidden:
                 x = nn.relu(x)
+                if self.layer_norm:
+                    x = nn.LayerNorm(dtype=self.hidden_dtype, name=f"LayerNorm_{i}")(x)
         return x
 
 
@@ -74,10 +79,10 @@ class CriticEnsemble(nn.Module):
     """Q_1..Q_N(s, a): N independent MLPs on concat(s, a), evaluated as one batched computation.
 
     Parameters carry a leading axis N (one `nn.vmap` over the critic MLP), so the N critics run as
-    one batched matmul per layer. The input is broadcast to (N, ..., O + A) first: from a shared
-    input the first product comes out (..., N, H) for width H, and XLA transposes it to
-    (N, ..., H), an extra pass over the activations (H100, 256 vmapped seeds of `fast`:
-    BENCHMARKS.md).
+    one batched matmul per layer; `layer_norm` normalises each hidden layer (`MLP`). The input
+    is broadcast to (N, ..., O + A) first: from a shared input the first product comes out
+    (..., N, H) for width H, and XLA transposes it to (N, ..., H), an extra pass over the
+    activations (H100, 256 vmapped seeds of `fast`: BENCHMARKS.md).
     Returns Q of shape (N, ...) for inputs (..., O) and (..., A).
     """
 
@@ -86,6 +91,7 @@ class CriticEnsemble(nn.Module):
     initializer: str = "flax"
     last_layer_init: Optional[float] = None
     hidden_dtype: Optional[Any] = None
+    layer_norm: bool = False
 
     @nn.compact
     def __call__(self, obs: jax.Array, action: jax.Array) -> jax.Array:
@@ -99,7 +105,8 @@ class CriticEnsemble(nn.Module):
         )
         x = jnp.concatenate([obs, action], axis=-1)
         critics = ensemble(tuple(self.hidden_sizes) + (1,), self.initializer,
-                           self.last_layer_init, hidden_dtype=self.hidden_dtype, name="critics")
+                           self.last_layer_init, hidden_dtype=self.hidden_dtype,
+                           layer_norm=self.layer_norm, name="critics")
         q = critics(jnp.broadcast_to(x, (self.num_critics,) + x.shape))
         return q[..., 0]
 

@@ -140,7 +140,7 @@ def _non_finite_code(sac: SACState, fields: Tuple[str, ...]) -> jax.Array:
 
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:
     """The agent sized for `config.env`, and that environment."""
-    env = envs.make(config.env)
+    env = config.make_env()
     return make_agent(config, env.observation_size, env.action_size, env.action_low,
                       env.action_high), env
 

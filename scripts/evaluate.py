@@ -157,7 +157,7 @@ def main(argv=None) -> int:
     results = {"run": args.run, "env": config.env, "seed": args.seed, "policy": policy.which,
                "episode_seed": args.episode_seed, "episodes": args.episodes}
     key = jax.random.key(args.episode_seed)
-    env = envs.make(config.env)
+    env = config.make_env()
     try:
         if use_ours:
             results["ours"] = _summary(our_returns(policy, env, args.episodes, key))

@@ -292,7 +292,7 @@ def main(argv=None) -> int:
         return fail(error, 2)
     except MissingDependency as error:
         return fail(error, 1)
-    env = envs.make(policy.config.env)
+    env = policy.config.make_env()
     steps = args.steps or env.max_episode_steps
     fps = args.fps or max(1, round(1.0 / env.dt))
     try:

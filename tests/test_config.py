@@ -38,6 +38,9 @@ BAD_VALUES = [
     ("update_order", ("actor", "value"), "must be one of"),
     ("data_parallel_axis", "", "non-empty axis name"),
     ("data_parallel_axis", 0, "non-empty axis name"),
+    ("critic_layer_norm", 1, "True or False"),
+    ("env_impl", "warp", "only MuJoCo Playground tasks"),
+    ("learn_alpha", "yes", "True or False"),
 ]
 
 

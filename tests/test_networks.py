@@ -1,4 +1,5 @@
-"""The networks' `hidden_dtype`: bfloat16 hidden layers with float32 parameters and outputs."""
+"""The networks' `hidden_dtype` (bfloat16 hidden layers with float32 parameters and outputs) and
+the critics' `layer_norm`."""
 
 import jax
 import jax.extend
@@ -54,3 +55,31 @@ def test_bfloat16_agent_has_the_float32_agent_parameters_and_close_outputs():
         assert got.dtype == jnp.float32
         error = np.max(np.abs(np.asarray(got) - np.asarray(want)))
         assert 0 < error <= 0.015 * np.max(np.abs(want)), error
+
+
+def test_critic_layer_norm_normalises_each_hidden_layer_after_its_relu():
+    """With `critic_layer_norm`, each critic's hidden layers are LayerNorm(relu(W h + b)): the
+    critic's output equals that computed by hand from its parameters, every critic has its own
+    scale and offset, and the actor is untouched."""
+    config = PRESETS["fast"].replace(critic_layer_norm=True)
+    agent, _ = agent_for(config)
+    state = agent.init(jax.random.key(0))
+    params = state.critic_params["params"]["critics"]
+    assert sorted(params) == ["Dense_0", "Dense_1", "Dense_2", "LayerNorm_0", "LayerNorm_1"]
+    assert params["LayerNorm_0"]["scale"].shape == (config.num_critics, 64)
+    assert "LayerNorm_0" not in str(jax.tree_util.tree_structure(state.actor_params))
+
+    def by_hand(i):
+        h = jnp.concatenate([OBS, ACTION], -1)
+        for layer in range(2):
+            dense, norm = params[f"Dense_{layer}"], params[f"LayerNorm_{layer}"]
+            h = jax.nn.relu(h @ dense["kernel"][i] + dense["bias"][i])
+            h = (h - h.mean(-1, keepdims=True)) / jnp.sqrt(h.var(-1, keepdims=True) + 1e-6)
+            h = h * norm["scale"][i] + norm["bias"][i]
+        return (h @ params["Dense_2"]["kernel"][i] + params["Dense_2"]["bias"][i])[:, 0]
+
+    q = agent.critic.apply(state.critic_params, OBS, ACTION)
+    for i in range(config.num_critics):
+        np.testing.assert_allclose(q[i], by_hand(i), rtol=1e-5, atol=1e-5)
+    plain = agent_for(PRESETS["fast"])[0].init(jax.random.key(0)).critic_params
+    assert "LayerNorm" not in str(jax.tree_util.tree_structure(plain))

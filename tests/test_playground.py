@@ -104,6 +104,24 @@ def test_unknown_names_and_a_missing_playground_fail_in_one_line(monkeypatch):
                                  "Playground: pip install -e \".[playground]\"")
 
 
+def test_the_configs_env_impl_chooses_the_tasks_backend(monkeypatch):
+    """`SACConfig.env_impl` reaches `registry.load`'s `impl` (MJX by default); on our own
+    environments, which have no choice, it is refused naming the field."""
+    loaded = []
+    monkeypatch.setattr(playground, "_load",
+                        lambda task, impl: loaded.append((task, impl)) or env_task())
+    config = sac_jax.PRESETS["CartpoleBalance"]
+    config.make_env()
+    config.replace(env_impl="warp").make_env()
+    assert loaded == [("CartpoleBalance", "jax"), ("CartpoleBalance", "warp")]
+    with pytest.raises(ValueError, match=r"^SACConfig.env_impl='warp': only MuJoCo Playground"):
+        sac_jax.SACConfig(env_impl="warp")
+
+
+def env_task():
+    return registry.load("CartpoleBalance", config_overrides={"impl": "jax"})
+
+
 def test_the_train_script_names_close_tasks_in_one_line(tmp_path):
     proc = subprocess.run([sys.executable, "scripts/train.py", "--env", "playground/Cartpole",
                            "--out", str(tmp_path / "run")], cwd=ROOT, capture_output=True,
