@@ -36,6 +36,9 @@
 #          simplejson, uvloop, prometheus-client and tensorboard (59 MB).
 #        bash benchmarks/gpu.sh progress [progress_overhead.py flags, e.g. --seeds 256] (the
 #          delivered mode's wheels)
+#        bash benchmarks/gpu.sh playground [playground_peer.py flags, e.g. --task CartpoleBalance]
+#          (Brax's SAC with Playground's config against ours; `gpu_wheels.sh playground`)
+#        bash benchmarks/gpu.sh playground_adapter [playground_adapter.py flags] (the same wheels)
 #        bash benchmarks/gpu.sh memory [benchmarks/memory.py flags, e.g. --largest 1000000] (the
 #          delivered mode's wheels; memory-KIND.json)
 set -uo pipefail
@@ -76,6 +79,13 @@ case "$mode" in
     fi
     if [ "$mode" = brax-cpu ]; then export JAX_PLATFORMS=cpu; fi
     run python3 -m benchmarks.brax_peer "$@" ;;
+  playground)
+    python3 -c "import tyro, orbax.checkpoint, brax.training.agents.sac.train
+from mujoco_playground import registry" || exit 1
+    run python3 -m benchmarks.playground_peer "$@" ;;
+  playground_adapter)
+    python3 -c "from mujoco_playground import registry" || exit 1
+    run python3 -m benchmarks.playground_adapter "$@" ;;
   torch)
     run python3 -m benchmarks.torch_time_to_solve "$@" ;;
   delivered)

@@ -4,12 +4,20 @@
 # first), so that the device runs what CI tests. .whl/ is git-ignored: carry it (carry: [".whl"]).
 # Usage: bash benchmarks/gpu_wheels.sh            # the delivered, progress and memory modes' set
 #        bash benchmarks/gpu_wheels.sh brax       # and brax with its imported needs (brax modes)
+#        bash benchmarks/gpu_wheels.sh playground # brax's and MuJoCo Playground (playground modes;
+#          pip install -e ".[playground]" first). Warp stays out: warp-lang's wheel (136 MB) is
+#          over the device tool's 64 MiB carry, and Playground's MJX tasks run without it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
 gast tyro docstring-parser typeguard gymnasium farama-notifications glfw orbax-checkpoint
 tensorstore humanize aiofiles simplejson uvloop prometheus-client tensorboard"
-if [ "${1:-}" = brax ]; then names="$names brax jaxopt ml_collections"; fi
+case "${1:-}" in
+  brax) names="$names brax jaxopt ml_collections" ;;
+  playground)  # without the packages the image has (tensorstore, tensorboard, ...), to fit
+    names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
+gast tyro docstring-parser typeguard orbax-checkpoint brax jaxopt ml_collections playground" ;;
+esac
 mkdir -p .whl
 for name in $names; do
   version=$(python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" "$name")

@@ -31,6 +31,7 @@ DOC = os.path.join(ROOT, "BENCHMARKS.md")
 BLOCK = re.compile(r"(<!-- generated: (\S+) -->\n)(.*?)(<!-- end generated -->)", re.S)
 
 
+PLAYGROUND_FAMILY = ("CartpoleBalance", "CartpoleSwingup", "PendulumSwingup", "AcrobotSwingup")
 GPUS = ("h100", "h200")  # the kinds (benchmarks/provenance.py's machine_kind) of one GPU
 
 
@@ -572,9 +573,53 @@ def playground() -> str:
 
     return _sources([(_find("playground_adapter-cpu"), "python -m benchmarks.playground_adapter"),
                      (_gpu("playground_adapter"),
-                      "bash benchmarks/gpu.sh playground_adapter --impl jax warp")],
+                      "bash benchmarks/gpu.sh playground_adapter --envs 4096 --steps 200")],
                     ["task", "machine", "backend", "instances", "raw steps/s",
                      "adapter steps/s", "adapter overhead"], rows)
+
+
+def _peer_files() -> List[str]:
+    return [n for n in (_gpu(f"playground_peer-{task}") for task in PLAYGROUND_FAMILY) if n]
+
+
+def playground_peer() -> str:
+    """Playground's SAC (Brax, its tuned config) against ours, per task, on one GPU."""
+    def rows(name, data):
+        r = data["result"]
+        one, many = r["ours"]["1"], r["ours"][str(max(int(n) for n in r["ours"]))]
+        reached = lambda run: ("not reached" if run["to_peer_final"] is None else
+                               f"{run['to_peer_final']['seconds']:.1f} s, "
+                               f"{run['to_peer_final']['env_steps']:,} steps")
+        peer_steps = r["peer_arguments"]["num_timesteps"]
+        return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}",
+                 f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps", reached(one),
+                 f"{many['seeds']}: {reached(many)}",
+                 "-" if r["ours_over_peer_time"] is None else f"{r['ours_over_peer_time']:.2f}x",
+                 "-" if r["seeds_over_one_time"] is None else f"{r['seeds_over_one_time']:.2f}x"]]
+
+    sources = [(_gpu(f"playground_peer-{task}"),
+                f"bash benchmarks/gpu.sh playground --task {task}") for task in PLAYGROUND_FAMILY]
+    return _sources(sources, ["task", "GPU", "peer's final return", "peer: wall time, budget",
+                              "ours, 1 seed: to that return", "ours, seeds vmapped",
+                              "time, ours / peer", "time, seeds / 1 seed"], rows)
+
+
+def _target_playground_peer(index: int):
+    names = _peer_files()
+    if not names:
+        return None
+    results = [_load(n)["result"] for n in names]
+    complete = len(names) == len(PLAYGROUND_FAMILY)
+
+    def figure(key, limit):
+        values = {r["task"]: r[key] for r in results}
+        met = all(v is not None and v <= limit for v in values.values())
+        return (", ".join(f"{task} " + ("not reached" if v is None else f"{v:.2f}x")
+                          for task, v in values.items())
+                + ("" if complete else f" ({len(names)} of {len(PLAYGROUND_FAMILY)} tasks)"),
+                met if complete or not met else None)
+
+    return names, [figure("ours_over_peer_time", 1 / 3), figure("seeds_over_one_time", 2.0)]
 
 
 def _target_playground_adapter():
@@ -678,6 +723,10 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
      "and on one H100 with 256 seeds", "Following a run", _target_checkpoint_cost, 0),
     ("Memory: the estimate (`sac_jax.memory`) within 25 % of the measured peak, 1 to 64 seeds, "
      "10^4 to 10^7 slots (CPU: peak RSS; H100: peak device bytes)", "Memory", _target_memory, 0),
+    ("GPU: on each pendulum-family Playground task, ours reaches Playground SAC's final return in "
+     "≤ 1/3 of its wall time", "MuJoCo Playground", lambda: _target_playground_peer(0), 0),
+    ("GPU: on each pendulum-family Playground task, 16 seeds vmapped reach it in ≤ 2x one "
+     "seed's time", "MuJoCo Playground", lambda: _target_playground_peer(0), 1),
     ("Playground adapter overhead ≤ 5 % of the raw task step (pendulum family, CPU and GPU)",
      "MuJoCo Playground", _target_playground_adapter, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
@@ -711,7 +760,8 @@ TABLES: Dict[str, Callable[[], str]] = {
     "presets": presets, "env-gpu": env_gpu, "env-cpu": env_cpu, "evaluation": evaluation,
     "updates-cpu": updates_cpu, "seed-scaling": seed_scaling, "profile": profile,
     "brax": brax, "torch": torch_loop, "progress": progress, "parallel": parallel,
-    "memory": memory, "sweep": sweep, "playground": playground}
+    "memory": memory, "sweep": sweep, "playground": playground,
+    "playground-peer": playground_peer}
 
 
 def render(text: str) -> str:

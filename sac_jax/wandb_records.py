@@ -95,9 +95,10 @@ def summary(path: str) -> Dict[str, object]:
 
 def logs(wandb_dir: str, run_id: str) -> List[str]:
     """The transaction logs of run `run_id` under `wandb_dir` (the `dir` given to
-    `wandb.init`: W&B writes `wandb/<mode>-run-<time>-<id>/run-<id>.wandb` there), oldest
-    first."""
-    pattern = os.path.join(glob.escape(wandb_dir), "wandb", f"*run-*-{glob.escape(run_id)}",
+    `wandb.init`: W&B writes `wandb/<mode>-run-<time>-<id>/run-<id>.wandb` there, and
+    `<mode>-run-<time>-<id>-1/` for a second process of the run started in the same second),
+    oldest first."""
+    pattern = os.path.join(glob.escape(wandb_dir), "wandb", f"*run-*-{glob.escape(run_id)}*",
                            f"run-{glob.escape(run_id)}.wandb")
     def started(path):  # the directory's name after "run-": the time the process started
         name = os.path.basename(os.path.dirname(path))

@@ -1,0 +1,140 @@
+"""MuJoCo Playground's own SAC against ours on a Playground task, back to back in one process.
+
+(a) The peer: Brax's `sac.train` with Playground's tuned `brax_sac_config(task)` (128 envs,
+    batch 512, 8 updates per step, lr 1e-3, observation normalisation, critic layer norm, 5M or
+    10M steps), on `registry.load(task, {"impl": "jax"})` under Playground's own
+    `wrap_for_brax_training`, as Playground's training notebook runs it. Brax 0.14.2 rejects
+    the config's `num_resets_per_eval`, which is dropped; its `network_factory` settings go to
+    `make_sac_networks`. `--peer-steps` shortens its budget (recorded).
+(b) Ours: `run_training` on `playground/<task>` with the task's preset (or `--preset`), its
+    budget `--total-steps`, stopping each seed once its delivered actor is confirmed at the
+    peer's final return, for 1 seed and for `--seeds` seeds vmapped in one program.
+
+Per run: wall time from the trainer's call, the evaluation points (env steps, return, seconds),
+and for ours the seconds and env steps at which the delivered actor's confirmed return first
+reaches the peer's final evaluation return (`to_peer_final`). The issue-24 targets: ours reaches
+it in at most 1/3 of the peer's wall time, and `--seeds` seeds in at most 2x one seed's time.
+
+    python -m benchmarks.playground_peer --task CartpoleBalance
+    python -m benchmarks.playground_peer --task CartpoleBalance --quick   # checks the script
+
+Writes benchmarks/results/playground_peer-TASK-KIND.json (command, machine, versions, date).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+import time
+
+import jax
+
+from benchmarks.brax_peer import device_put_replicated
+from benchmarks.provenance import provenance, result_name, write_result
+from envs import playground
+from sac_jax.presets import PRESETS
+from sac_jax.run import run_training
+
+REJECTED = ("num_resets_per_eval",)  # in brax_sac_config, not an argument of brax 0.14.2's train
+
+
+def peer_arguments(task: str, peer_steps=None) -> dict:
+    """`sac.train` keyword arguments from Playground's `brax_sac_config(task)`."""
+    from brax.training.agents.sac import networks as sac_networks
+    from mujoco_playground.config import dm_control_suite_params
+
+    config = dm_control_suite_params.brax_sac_config(task).to_dict()
+    for key in REJECTED:
+        config.pop(key, None)
+    config["network_factory"] = functools.partial(sac_networks.make_sac_networks,
+                                                  **config["network_factory"])
+    if peer_steps is not None:
+        config["num_timesteps"] = peer_steps
+    return config
+
+
+def run_peer(task: str, arguments: dict, seed: int) -> dict:
+    from brax.training.agents.sac import train as brax_sac
+    from mujoco_playground import registry, wrapper
+
+    env = registry.load(task, config_overrides={"impl": "jax"})
+    points = []
+    t0 = time.time()
+
+    def progress(step, metrics):
+        points.append((int(step), float(metrics["eval/episode_reward"]), time.time() - t0))
+        print(f"  peer {task} step {step:,}: {points[-1][1]:.1f} at {points[-1][2]:.1f} s",
+              file=sys.stderr, flush=True)
+
+    brax_sac.train(environment=env, seed=seed, progress_fn=progress,
+                   wrap_env_fn=wrapper.wrap_for_brax_training, **arguments)
+    return dict(wall_s=round(time.time() - t0, 2), points=points, final_return=points[-1][1])
+
+
+def run_ours(config, seeds: int, seed: int, target: float) -> dict:
+    """`seeds` seeds vmapped; each stops once its delivered actor is confirmed at `target`.
+    Points: (env steps, delivered return averaged over seeds, fraction stopped, seconds)."""
+    config = config.replace(stop_when_solved=True, stop_return=target)
+    points = []
+    t0 = time.time()
+
+    def on_point(step, means, _returns, _elapsed):
+        points.append((int(step), float(means["delivered_return"]), float(means["stopped"]),
+                       time.time() - t0))
+
+    run_training(config, seeds=seeds, seed=seed, on_point=on_point)
+    reached = next(((s, t) for s, _, stopped, t in points if stopped == 1.0), None)
+    return dict(seeds=seeds, wall_s=round(time.time() - t0, 2), points=points,
+                to_peer_final=None if reached is None else
+                dict(env_steps=reached[0], seconds=round(reached[1], 2)))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--task", default="CartpoleBalance", choices=playground.TASKS)
+    parser.add_argument("--preset", default=None, help="ours (default: the task's preset)")
+    parser.add_argument("--seeds", type=int, default=16, help="ours, vmapped in one run")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--total-steps", type=int, default=102_400,
+                        help="ours: the budget (and replay size) within which to reach the "
+                             "peer's final return")
+    parser.add_argument("--peer-steps", type=int, default=None,
+                        help="the peer's budget (default: its config's num_timesteps)")
+    parser.add_argument("--quick", action="store_true", help="tiny runs (figures meaningless)")
+    args = parser.parse_args()
+    source = provenance()
+    if not hasattr(jax, "device_put_replicated"):  # Brax 0.14.2 calls it; gone in JAX 0.10
+        jax.device_put_replicated = device_put_replicated
+    preset = args.preset or args.task
+    if preset not in PRESETS:
+        parser.error(f"no preset {preset!r}; give --preset (one of {sorted(PRESETS)})")
+    config = PRESETS[preset].replace(env=playground.PREFIX + args.task,
+                                     total_steps=args.total_steps, buffer_size=args.total_steps)
+    arguments = peer_arguments(args.task, 20_000 if args.quick else args.peer_steps)
+    if args.quick:
+        arguments.update(num_envs=16, batch_size=64, min_replay_size=1024, num_evals=2,
+                         num_eval_envs=4, grad_updates_per_step=1)
+        config = config.replace(total_steps=3072, buffer_size=3072, eval_every=1024)
+
+    peer = run_peer(args.task, arguments, args.seed)
+    target = peer["final_return"]
+    ours = {n: run_ours(config, n, args.seed, target) for n in sorted({1, args.seeds})}
+    one = ours[1]["to_peer_final"]
+    many = ours[args.seeds]["to_peer_final"]
+    result = dict(
+        task=args.task, preset=preset, quick=args.quick, seed=args.seed,
+        peer_arguments={k: v for k, v in arguments.items() if k != "network_factory"},
+        peer_network=dict(arguments["network_factory"].keywords),
+        peer=peer, ours={str(n): run for n, run in ours.items()},
+        ours_over_peer_time=None if one is None else round(one["seconds"] / peer["wall_s"], 3),
+        seeds_over_one_time=(None if None in (one, many)
+                             else round(many["seconds"] / one["seconds"], 3)))
+    print(f"{args.task}: peer final {target:.1f} in {peer['wall_s']:.0f} s; ours 1 seed "
+          f"{one}; {args.seeds} seeds {many}; time ratio {result['ours_over_peer_time']}, "
+          f"seeds ratio {result['seeds_over_one_time']}")
+    write_result(result_name(f"playground_peer-{args.task}"), result, source)
+
+
+if __name__ == "__main__":
+    main()
