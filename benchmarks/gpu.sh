@@ -39,6 +39,7 @@
 #        bash benchmarks/gpu.sh playground [playground_peer.py flags, e.g. --task CartpoleBalance]
 #          (Brax's SAC with Playground's config against ours; `gpu_wheels.sh playground`)
 #        bash benchmarks/gpu.sh playground_adapter [playground_adapter.py flags] (the same wheels)
+#        bash benchmarks/gpu.sh search [preset_search.py flags] (the same wheels)
 #        bash benchmarks/gpu.sh memory [benchmarks/memory.py flags, e.g. --largest 1000000] (the
 #          delivered mode's wheels; memory-KIND.json)
 set -uo pipefail
@@ -86,6 +87,8 @@ from mujoco_playground import registry" || exit 1
   playground_adapter)
     python3 -c "from mujoco_playground import registry" || exit 1
     run python3 -m benchmarks.playground_adapter "$@" ;;
+  search)
+    run python3 -m benchmarks.preset_search "$@" ;;
   torch)
     run python3 -m benchmarks.torch_time_to_solve "$@" ;;
   delivered)

@@ -1,0 +1,68 @@
+"""Candidate settings for a preset, side by side: each variant trains `--seeds` seeds vmapped
+in one run, one variant after another in one process, and reports what its seeds deliver.
+
+A variant is a preset with fields replaced, given as JSON (`--variant '{"critic_layer_norm":
+true}'`, repeatable; `{}` is the preset itself). Per variant: the delivered return (confirmed,
+`sac_jax.selection`) of every seed at the end, the mean curve of delivered returns over the
+evaluation points, the wall time (compilation included) and the run's environment steps.
+Stopping is off unless the variant sets it, so every seed uses the whole budget.
+
+    python -m benchmarks.preset_search --preset CartpoleSwingup --seeds 8 \\
+        --variant '{}' --variant '{"critic_layer_norm": true}'
+
+Writes benchmarks/results/preset_search-PRESET-KIND.json (command, machine, versions, date).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from benchmarks.provenance import provenance, result_name, write_result
+from sac_jax.presets import PRESETS
+from sac_jax.run import run_training
+
+
+def run_variant(config, seeds: int, seed: int) -> dict:
+    points = []
+    t0 = time.time()
+
+    def on_point(step, means, _returns, _elapsed):
+        points.append((int(step), round(float(means["delivered_return"]), 1),
+                       round(time.time() - t0, 1)))
+
+    result = run_training(config, seeds=seeds, seed=seed, on_point=on_point)
+    delivered = np.asarray(result.summary["delivered_return"], np.float64)
+    return dict(wall_s=round(time.time() - t0, 1), env_steps=points[-1][0],
+                delivered=[round(float(d), 1) for d in delivered],
+                delivered_mean=round(float(delivered.mean()), 1),
+                delivered_min=round(float(delivered.min()), 1), curve=points)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--preset", required=True, choices=sorted(PRESETS))
+    parser.add_argument("--variant", action="append", type=json.loads, required=True,
+                        help="JSON object of fields to replace (repeatable)")
+    parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    source = provenance()
+    base = PRESETS[args.preset].replace(stop_when_solved=False)
+    configs = [base.replace(**v) for v in args.variant]  # all validated before any run
+    rows = []
+    for variant, config in zip(args.variant, configs):
+        row = dict(variant=variant, **run_variant(config, args.seeds, args.seed))
+        rows.append(row)
+        print(f"{json.dumps(variant)}: delivered mean {row['delivered_mean']}, min "
+              f"{row['delivered_min']} after {row['env_steps']:,} steps, {row['wall_s']} s; "
+              f"curve {row['curve'][::max(1, len(row['curve']) // 8)]}", flush=True)
+    write_result(result_name(f"preset_search-{args.preset}"),
+                 dict(preset=args.preset, seeds=args.seeds, rows=rows), source)
+
+
+if __name__ == "__main__":
+    main()
