@@ -10,7 +10,8 @@ Stopping is off unless the variant sets it, so every seed uses the whole budget.
     python -m benchmarks.preset_search --preset CartpoleSwingup --seeds 8 \\
         --variant '{}' --variant '{"critic_layer_norm": true}'
 
-Writes benchmarks/results/preset_search-PRESET-KIND.json (command, machine, versions, date).
+Writes benchmarks/results/preset_search-TASK-KIND.json, TASK the first variant's environment
+(its name after "playground/"), with the command, machine, versions and date.
 """
 
 from __future__ import annotations
@@ -60,7 +61,8 @@ def main() -> None:
         print(f"{json.dumps(variant)}: delivered mean {row['delivered_mean']}, min "
               f"{row['delivered_min']} after {row['env_steps']:,} steps, {row['wall_s']} s; "
               f"curve {row['curve'][::max(1, len(row['curve']) // 8)]}", flush=True)
-    write_result(result_name(f"preset_search-{args.preset}"),
+    task = configs[0].env.split("/")[-1]  # the first variant's environment names the file
+    write_result(result_name(f"preset_search-{task}"),
                  dict(preset=args.preset, seeds=args.seeds, rows=rows), source)
 
 
