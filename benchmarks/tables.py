@@ -622,6 +622,46 @@ def _target_playground_peer(index: int):
     return names, [figure("ours_over_peer_time", 1 / 3), figure("seeds_over_one_time", 2.0)]
 
 
+def rejax() -> str:
+    """rejax against ours on rejax's tuned Pendulum-v1 SAC: its program, our program, our script."""
+    def rows(name, data):
+        where = "CPU" if name.endswith("-cpu") else _machine(data)
+        out = []
+        for r in data["result"]["rows"]:
+            j, p, cold, warm = r["rejax"], r["program"], r["script_cold"], r["script_warm"]
+            out.append([where, r["seeds"], f"{j['compile_s']:.1f} + {j['run_s']:.2f} s",
+                        f"{p['compile_s']:.1f} + {p['run_s']:.2f} s",
+                        f"{warm['run_s']:.2f} s ({r['script_over_program']:.2f}x)",
+                        f"{cold['wall_s']:.1f} / {warm['wall_s']:.1f} s",
+                        f"{r['rejax_over_script_end_to_end']:.2f}x",
+                        f"{_mean(j['final_return_per_seed']):.0f} / {_mean(p['final_per_seed']):.0f}"])
+        return out
+
+    return _sources([(_find("rejax_peer-cpu"), "python -m benchmarks.rejax_peer --rejax-python "
+                      "PATH"), (_gpu("rejax_peer"), "python -m benchmarks.rejax_peer on a GPU")],
+                    ["machine", "seeds", "rejax: compile + run", "our program: compile + run",
+                     "our script: run (/ program)", "our script: wall cold / warm",
+                     "rejax (compile + run) / our script's warm wall", "final return rejax / ours"],
+                    rows)
+
+
+def _target_rejax(key: str, limit: float, above: bool):
+    names = [n for n in (_find("rejax_peer-cpu"), _gpu("rejax_peer")) if n]
+    if not names:
+        return None
+    parts, met = [], True
+    for name in names:
+        where = "CPU" if name.endswith("-cpu") else "GPU"
+        for r in _load(name)["result"]["rows"]:
+            parts.append(f"{where} {r['seeds']} seed(s) {r[key]:.2f}x")
+            met = met and (r[key] >= limit if above else r[key] <= limit)
+    return names, [("; ".join(parts), met if len(names) == 2 or not met else None)]
+
+
+def _mean(values) -> float:
+    return sum(values) / len(values)
+
+
 def _target_playground_adapter():
     names = _playground_files()
     if not names:
@@ -727,6 +767,12 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
      "≤ 1/3 of its wall time", "MuJoCo Playground", lambda: _target_playground_peer(0), 0),
     ("GPU: on each pendulum-family Playground task, 16 seeds vmapped reach it in ≤ 2x one "
      "seed's time", "MuJoCo Playground", lambda: _target_playground_peer(0), 1),
+    ("`scripts/train.py` run time ≤ 1.15x the jitted `make_train` of the same config, "
+     "evaluating every 500 steps (rejax's Pendulum-v1 SAC), CPU and GPU", "rejax",
+     lambda: _target_rejax("script_over_program", 1.15, False), 0),
+    ("End to end through `scripts/train.py` (warm): ≥ 2x rejax (compile + run), 1 and 16 seeds on "
+     "2 CPU cores, 1 and 256 on one H100", "rejax",
+     lambda: _target_rejax("rejax_over_script_end_to_end", 2.0, True), 0),
     ("Playground adapter overhead ≤ 5 % of the raw task step (pendulum family, CPU and GPU)",
      "MuJoCo Playground", _target_playground_adapter, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
@@ -761,7 +807,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     "updates-cpu": updates_cpu, "seed-scaling": seed_scaling, "profile": profile,
     "brax": brax, "torch": torch_loop, "progress": progress, "parallel": parallel,
     "memory": memory, "sweep": sweep, "playground": playground,
-    "playground-peer": playground_peer}
+    "playground-peer": playground_peer, "rejax": rejax}
 
 
 def render(text: str) -> str:

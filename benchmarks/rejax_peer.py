@@ -1,0 +1,132 @@
+"""rejax, the closest JAX peer, against sac-jax on rejax's own tuned SAC for Pendulum-v1, in one job.
+
+rejax (benchmarks/rejax_side.py, run with `--rejax-python`, the interpreter of a virtual
+environment holding rejax 0.1.3 and gymnax 0.0.9): its configuration, `jax.jit(train)`.
+Ours, with the same numbers (issue 28's command):
+
+    --preset fast --env Pendulum-v1 --num-envs 1 --updates-per-step 1 --total-steps 10000
+    --learning-starts 256 --buffer-size 10000 --eval-every 500 --actor-lr 0.01
+    --critic-lr 0.01 --alpha-lr 0.01 --tau 0.02 (and no early stop)
+
+measured two ways for each `--seeds` count:
+* program: `jax.jit(make_train(config))` (vmapped over seeds), compile time and the median run
+  time of `--repeats` calls, as rejax's;
+* script: `python scripts/train.py ... --seeds N` in a subprocess with a fresh compilation cache
+  (cold) and again with it filled (warm): process wall time, and the summary's `run_s` (training
+  after compilation), the time that issue 28 puts against the program's run time.
+
+What differs between the two trainers (and is not matched): rejax uses swish activations,
+observation normalisation and 128 evaluation episodes per point; ours ReLU, raw observations and
+5 evaluation episodes plus 20 confirmation episodes for a candidate actor. Returns: rejax's last
+evaluation (mean over its seeds), ours the delivered actor's confirmed return (mean over seeds).
+
+    python -m benchmarks.rejax_peer --rejax-python /work/rejax-venv/bin/python --seeds 1 16
+
+Writes benchmarks/results/rejax_peer-KIND.json (command, machine, versions, date).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import jax
+import numpy as np
+
+from benchmarks.provenance import provenance, result_name, write_result
+from sac_jax.presets import PRESETS
+from sac_jax.train import make_train, make_train_parts
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FLAGS = ["--preset", "fast", "--env", "Pendulum-v1", "--num-envs", "1", "--updates-per-step", "1",
+         "--total-steps", "10000", "--learning-starts", "256", "--buffer-size", "10000",
+         "--eval-every", "500", "--actor-lr", "0.01", "--critic-lr", "0.01", "--alpha-lr", "0.01",
+         "--tau", "0.02", "--no-stop-when-solved"]
+CONFIG = PRESETS["fast"].replace(
+    env="Pendulum-v1", num_envs=1, updates_per_step=1, total_steps=10_000, learning_starts=256,
+    buffer_size=10_000, eval_every=500, actor_lr=0.01, critic_lr=0.01, alpha_lr=0.01, tau=0.02,
+    stop_when_solved=False)
+
+
+def program(seeds: int, repeats: int) -> dict:
+    train = make_train(CONFIG)
+    train = train if seeds == 1 else jax.vmap(train)
+    keys = jax.random.key(0) if seeds == 1 else jax.random.split(jax.random.key(0), seeds)
+    start = time.perf_counter()
+    compiled = jax.jit(train).lower(keys).compile()
+    compile_s = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        _, outputs = jax.block_until_ready(compiled(keys))
+        times.append(time.perf_counter() - start)
+    delivered = np.asarray(outputs["delivered_return"]).reshape(seeds, -1)
+    return dict(compile_s=round(compile_s, 3), run_s=round(statistics.median(times), 3),
+                run_times_s=[round(t, 3) for t in times],
+                eval_steps=[int(s) for s in np.asarray(outputs["env_steps"]).reshape(seeds, -1)[0]],
+                delivered_mean=[round(float(r), 1) for r in delivered.mean(0)],
+                final_per_seed=[round(float(r), 1) for r in delivered[:, -1]])
+
+
+def script(seeds: int, cache_dir: str) -> dict:
+    with tempfile.TemporaryDirectory() as out:
+        start = time.perf_counter()
+        proc = subprocess.run([sys.executable, "scripts/train.py", *FLAGS, "--seeds", str(seeds),
+                               "--cache-dir", cache_dir, "--out", os.path.join(out, "run")],
+                              cwd=ROOT, capture_output=True, text=True)
+        wall_s = time.perf_counter() - start
+        if proc.returncode != 0:
+            raise RuntimeError(f"scripts/train.py failed: {proc.stderr.strip()[-500:]}")
+        with open(os.path.join(out, "run", "summary.json")) as f:
+            summary = json.load(f)
+    return dict(wall_s=round(wall_s, 3), compile_s=summary["compile_s"], run_s=summary["run_s"],
+                startup_s=summary["startup_s"],
+                delivered_mean=round(float(np.mean(summary["delivered_return"])), 1))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--rejax-python", required=True,
+                        help="python of a virtual environment with rejax 0.1.3, gymnax 0.0.9")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 16])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    source = provenance()
+    proc = subprocess.run([args.rejax_python, os.path.join(ROOT, "benchmarks", "rejax_side.py"),
+                           "--seeds", *map(str, args.seeds), "--repeats", str(args.repeats)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"rejax side failed: {proc.stderr.strip()[-500:]}")
+    rejax = json.loads(proc.stdout.strip().splitlines()[-1])
+    rows = []
+    for run in rejax["runs"]:
+        n = run["seeds"]
+        ours = program(n, args.repeats)
+        with tempfile.TemporaryDirectory() as cache:
+            cold, warm = script(n, cache), script(n, cache)
+        row = dict(seeds=n, rejax=run, program=ours, script_cold=cold, script_warm=warm,
+                   script_over_program=round(warm["run_s"] / ours["run_s"], 3),
+                   rejax_over_program=round(run["run_s"] / ours["run_s"], 3),
+                   rejax_over_script_end_to_end=round(
+                       (run["compile_s"] + run["run_s"]) / warm["wall_s"], 3))
+        rows.append(row)
+        print(f"{n} seed(s): rejax {run['compile_s']:.1f} s compile + {run['run_s']:.2f} s run, "
+              f"final {statistics.mean(run['final_return_per_seed']):.1f}; program "
+              f"{ours['compile_s']:.1f} + {ours['run_s']:.2f} s, delivered "
+              f"{statistics.mean(ours['final_per_seed']):.1f}; script run {warm['run_s']:.2f} s "
+              f"(wall {cold['wall_s']:.1f} s cold, {warm['wall_s']:.1f} s warm); script/program "
+              f"{row['script_over_program']}", flush=True)
+    parts = make_train_parts(CONFIG)  # the script dispatches num_chunks programs of this length
+    write_result(result_name("rejax_peer"), dict(
+        rejax_side=rejax, rows=rows, our_flags=FLAGS, chunk_iterations=parts.chunk_iterations,
+        num_chunks=parts.num_chunks), source)
+
+
+if __name__ == "__main__":
+    main()

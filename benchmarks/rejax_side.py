@@ -1,0 +1,66 @@
+"""rejax's half of benchmarks/rejax_peer.py, run with the Python of rejax's own virtual
+environment (rejax 0.1.3 needs gymnax 0.0.9, which our environment does not pin). It imports
+rejax and JAX only, and prints one JSON object on its last line.
+
+Its configuration is rejax's own tuned SAC for Pendulum-v1 (rejax's configs/gymnax/
+pendulum.yaml: 1 env, buffer 10,000, fill 256, batch 256, lr 0.01, 1 update per step, 10,000
+steps, gamma 0.99, polyak 0.98, swish activations, observation normalisation), evaluated every
+`--eval-freq` steps over rejax's 128 episodes. For each `--seeds` count: `jax.jit` of `train`
+(vmapped over seeds where more than one), its compile time (`lower(...).compile()`), the median
+run time of `--repeats` calls, and per evaluation point the mean return over seeds.
+
+    /path/to/rejax-venv/bin/python benchmarks/rejax_side.py --seeds 1 16
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+
+import jax
+
+CONFIG = dict(env="Pendulum-v1", agent_kwargs={"activation": "swish"}, num_envs=1,
+              buffer_size=10_000, fill_buffer=256, batch_size=256, learning_rate=0.01,
+              num_epochs=1, total_timesteps=10_000, gamma=0.99, polyak=0.98,
+              target_entropy_ratio=None, normalize_observations=True)
+
+
+def measure(algo, seeds: int, repeats: int) -> dict:
+    train = algo.train if seeds == 1 else jax.vmap(algo.train)
+    keys = jax.random.key(0) if seeds == 1 else jax.random.split(jax.random.key(0), seeds)
+    start = time.perf_counter()
+    compiled = jax.jit(train).lower(keys).compile()
+    compile_s = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        _, (_, returns) = jax.block_until_ready(compiled(keys))
+        times.append(time.perf_counter() - start)
+    per_seed = returns.reshape(seeds, -1, returns.shape[-1]).mean(-1)  # (seeds, points)
+    curve = per_seed.mean(0)
+    return dict(seeds=seeds, compile_s=round(compile_s, 3),
+                run_s=round(statistics.median(times), 3), run_times_s=[round(t, 3) for t in times],
+                eval_steps=[i * algo.eval_freq for i in range(curve.size)],
+                mean_return=[round(float(r), 1) for r in curve],
+                final_return_per_seed=[round(float(r), 1) for r in per_seed[:, -1]])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--eval-freq", type=int, default=500)
+    args = parser.parse_args()
+    import rejax
+
+    algo = rejax.SAC.create(**CONFIG, eval_freq=args.eval_freq)
+    runs = [measure(algo, n, args.repeats) for n in args.seeds]
+    print(json.dumps(dict(rejax=rejax.__version__ if hasattr(rejax, "__version__") else "0.1.3",
+                          jax=jax.__version__, device=jax.devices()[0].device_kind,
+                          config=CONFIG, eval_freq=args.eval_freq, runs=runs)))
+
+
+if __name__ == "__main__":
+    main()
