@@ -48,7 +48,7 @@ def _wait(array: jax.Array, should_stop: Optional[Callable[[], bool]], grace_s: 
     has been true for `grace_s` seconds of the wait."""
     asked = None
     while not array.is_ready():
-        time.sleep(0.001)
+        time.sleep(0.0002)
         if should_stop is not None and should_stop():
             asked = time.perf_counter() if asked is None else asked
             if time.perf_counter() - asked >= grace_s:
@@ -130,14 +130,23 @@ def _finite_flags(tree):
         lambda x: jnp.all(jnp.isfinite(x), axis=tuple(range(1, x.ndim))), tree)
 
 
+def _finite_check(tree):
+    """(whether every entry of `tree` is finite, as one () bool, `_finite_flags(tree)`): the run
+    fetches the one bool after each chunk, and the flags only where it is false (fetching the
+    flags, one small array per leaf, cost 0.55 ms a chunk on the CPU: 1.4 s of a 2,500-chunk
+    run)."""
+    flags = _finite_flags(tree)
+    return jnp.all(jnp.stack([jnp.all(f) for f in jax.tree_util.tree_leaves(flags)])), flags
+
+
 def first_non_finite(flags, first: Optional[Sequence[Optional[str]]] = None) -> Optional[str]:
     """'<array> of seed <s>' for the first seed whose vmapped `SACState` holds a NaN or an
     infinity, from its `_finite_flags`; None if all are finite. The array is the first
     non-finite one of the field `first[s]` (the field that went non-finite first, from
     `RunnerState.non_finite`) if given, else the first in the state's order."""
-    flat = [(jax.tree_util.keystr(path, simple=True, separator="/"), np.asarray(ok))
-            for path, ok in jax.tree_util.tree_flatten_with_path(jax.device_get(flags))[0]]
-    bad = [(name, ok) for name, ok in flat if not np.all(ok)]
+    flat = jax.tree_util.tree_flatten_with_path(jax.device_get(flags))[0]
+    bad = [(jax.tree_util.keystr(path, simple=True, separator="/"), np.asarray(ok))
+           for path, ok in flat if not np.all(ok)]  # named only when bad: this runs per chunk
     if not bad:
         return None
     seed = min(int(np.argmin(ok)) if ok.ndim else 0 for _, ok in bad)
@@ -154,7 +163,7 @@ def compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...] = ())
 
 @functools.lru_cache(maxsize=4)
 def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
-    """(parts, compiled vmapped init, compiled vmapped chunk, compiled `_finite_flags` of the
+    """(parts, compiled vmapped init, compiled vmapped chunk, compiled `_finite_check` of the
     state's `SACState`, the state's sharding) for `seeds` seeds of `config` (with the
     hyperparameters `swept` traced, one value per seed: `init(keys, {name: (seeds,)})`), the
     seeds split over the local devices when there are several and they divide `seeds`
@@ -174,7 +183,7 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     # (compiled at the first chunk's end instead, the check cost a run 0.36 s on the CPU)
     with concurrent.futures.ThreadPoolExecutor(2) as pool:
         init = pool.submit(init.compile, compiler_options=options)
-        finite = pool.submit(jax.jit(_finite_flags).lower(state.sac).compile)
+        finite = pool.submit(jax.jit(_finite_check).lower(state.sac).compile)
         if directory is None or len(jax.local_devices()) > 1:
             chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
             chunk = chunk.lower(state).compile(compiler_options=options)
@@ -270,10 +279,11 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         new_points = points_reached(runner)
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position.run_s = host_start - start
-        flags = finite(runner.sac)
+        all_finite, flags = finite(runner.sac)
         fields = non_finite_fields(config)
-        bad = first_non_finite(flags, [fields[c - 1] if c else None
-                                       for c in np.ravel(jax.device_get(runner.non_finite))])
+        bad = None if bool(all_finite) else first_non_finite(
+            flags, [fields[c - 1] if c else None
+                    for c in np.ravel(jax.device_get(runner.non_finite))])
         if bad is not None:
             steps = int(runner.iteration) * config.num_envs
             if stop_on_non_finite:
