@@ -196,24 +196,30 @@ def brax() -> str:
 
 def memory() -> str:
     """Peak memory per replay slot and per seed against their data, and `sac_jax.memory`'s
-    estimate against the measured peak of each run (CPU)."""
-    data = _load("memory")
-    r, date = data["result"], _date(data)
-    rows = [["per replay slot (`fast`, 1 seed)", date, f"{r['bytes_per_slot']:.1f}",
-             r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}", "`memory.json`"],
-            [f"per seed, its {r.get('seed_buffer_size', 1_000_000):,}-slot buffer included "
-             "(`fast`)", date, f"{r['bytes_per_seed']:,}", f"{r['seed_data_bytes']:,}",
-             f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}", "`memory.json`"]]
-    table = _table(["quantity", "date", "peak bytes", "data bytes", "ratio", "results"], rows)
-    if "estimate_over_peak" not in r:
+    estimate against the measured peak of each run (CPU: peak RSS; a GPU: peak device bytes)."""
+    quantities, runs = [], []
+    for name in [n for n in ("memory", _gpu("memory")) if n]:
+        data = _load(name)
+        r, date = data["result"], _date(data)
+        where, key = (("CPU", "peak_host_bytes") if name == "memory"
+                      else (_machine(data), "peak_device_bytes"))
+        quantities += [
+            [f"{where}: per replay slot (`fast`, 1 seed)", date, f"{r['bytes_per_slot']:.1f}",
+             r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}", f"`{name}.json`"],
+            [f"{where}: per seed, its {r.get('seed_buffer_size', 1_000_000):,}-slot buffer "
+             "included (`fast`)", date, f"{r['bytes_per_seed']:,}", f"{r['seed_data_bytes']:,}",
+             f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}", f"`{name}.json`"]]
+        if "estimate_over_peak" in r:
+            named = [(f"1 seed, {int(b):,} slots", m) for b, m in r["buffers"].items()] + [
+                (f"{s} seed{'s' * (int(s) > 1)}, {r['seed_buffer_size']:,} slots", m)
+                for s, m in r["seeds"].items()]
+            runs += [[where, run, f"{m[key] / 1e6:,.0f}", f"{m['memory_model_peak_bytes'] / 1e6:,.0f}",
+                      f"{m['memory_model_peak_bytes'] / m[key]:.2f}"] for run, m in named]
+    table = _table(["quantity", "date", "peak bytes", "data bytes", "ratio", "results"], quantities)
+    if not runs:
         return table
-    runs = [(f"1 seed, {int(b):,} slots", m) for b, m in r["buffers"].items()] + [
-        (f"{s} seed{'s' * (int(s) > 1)}, {r['seed_buffer_size']:,} slots", m)
-        for s, m in r["seeds"].items()]
     return table + "\n" + _table(
-        ["run (`fast`)", "measured peak MB", "estimate MB", "estimate / peak"],
-        [[name, f"{m['peak_host_bytes'] / 1e6:,.0f}", f"{m['memory_model_peak_bytes'] / 1e6:,.0f}",
-          f"{m['memory_model_peak_bytes'] / m['peak_host_bytes']:.2f}"] for name, m in runs])
+        ["machine", "run (`fast`)", "measured peak MB", "estimate MB", "estimate / peak"], runs)
 
 
 # The commands that write the results files of the tables below (BENCHMARKS.md's sizes).
