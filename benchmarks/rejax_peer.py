@@ -36,10 +36,10 @@ import sys
 import tempfile
 import time
 
-import jax
 import numpy as np
 
 from benchmarks.provenance import provenance, result_name, write_result
+from benchmarks.rejax_side import timed
 from sac_jax.presets import PRESETS
 from sac_jax.train import make_train, make_train_parts
 
@@ -55,17 +55,7 @@ CONFIG = PRESETS["fast"].replace(
 
 
 def program(seeds: int, repeats: int) -> dict:
-    train = make_train(CONFIG)
-    train = train if seeds == 1 else jax.vmap(train)
-    keys = jax.random.key(0) if seeds == 1 else jax.random.split(jax.random.key(0), seeds)
-    start = time.perf_counter()
-    compiled = jax.jit(train).lower(keys).compile()
-    compile_s = time.perf_counter() - start
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        _, outputs = jax.block_until_ready(compiled(keys))
-        times.append(time.perf_counter() - start)
+    compile_s, times, (_, outputs) = timed(make_train(CONFIG), seeds, repeats)
     delivered = np.asarray(outputs["delivered_return"]).reshape(seeds, -1)
     return dict(compile_s=round(compile_s, 3), run_s=round(statistics.median(times), 3),
                 run_times_s=[round(t, 3) for t in times],

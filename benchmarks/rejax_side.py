@@ -27,8 +27,11 @@ CONFIG = dict(env="Pendulum-v1", agent_kwargs={"activation": "swish"}, num_envs=
               target_entropy_ratio=None, normalize_observations=True)
 
 
-def measure(algo, seeds: int, repeats: int) -> dict:
-    train = algo.train if seeds == 1 else jax.vmap(algo.train)
+def timed(train, seeds: int, repeats: int):
+    """(compile seconds, [run seconds] of `repeats` calls, the last call's output) of
+    `jax.jit(train)` on key 0, vmapped over `seeds` keys split from it where seeds > 1; shared
+    with benchmarks/rejax_peer.py, so both trainers are timed alike."""
+    train = train if seeds == 1 else jax.vmap(train)
     keys = jax.random.key(0) if seeds == 1 else jax.random.split(jax.random.key(0), seeds)
     start = time.perf_counter()
     compiled = jax.jit(train).lower(keys).compile()
@@ -36,8 +39,13 @@ def measure(algo, seeds: int, repeats: int) -> dict:
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
-        _, (_, returns) = jax.block_until_ready(compiled(keys))
+        output = jax.block_until_ready(compiled(keys))
         times.append(time.perf_counter() - start)
+    return compile_s, times, output
+
+
+def measure(algo, seeds: int, repeats: int) -> dict:
+    compile_s, times, (_, (_, returns)) = timed(algo.train, seeds, repeats)
     per_seed = returns.reshape(seeds, -1, returns.shape[-1]).mean(-1)  # (seeds, points)
     curve = per_seed.mean(0)
     return dict(seeds=seeds, compile_s=round(compile_s, 3),
