@@ -610,7 +610,7 @@ def playground_peer() -> str:
                               "time, ours / peer", "time, seeds / 1 seed"], rows)
 
 
-def _target_playground_peer(index: int):
+def _target_playground_peer():
     names = _peer_files()
     if not names:
         return None
@@ -770,9 +770,9 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("Memory: the estimate (`sac_jax.memory`) within 25 % of the measured peak, 1 to 64 seeds, "
      "10^4 to 10^7 slots (CPU: peak RSS; H100: peak device bytes)", "Memory", _target_memory, 0),
     ("GPU: on each pendulum-family Playground task, ours reaches Playground SAC's final return in "
-     "≤ 1/3 of its wall time", "MuJoCo Playground", lambda: _target_playground_peer(0), 0),
+     "≤ 1/3 of its wall time", "MuJoCo Playground", _target_playground_peer, 0),
     ("GPU: on each pendulum-family Playground task, 16 seeds vmapped reach it in ≤ 2x one "
-     "seed's time", "MuJoCo Playground", lambda: _target_playground_peer(0), 1),
+     "seed's time", "MuJoCo Playground", _target_playground_peer, 1),
     ("`scripts/train.py` run time ≤ 1.15x the jitted `make_train` of the same config, "
      "evaluating every 500 steps (rejax's Pendulum-v1 SAC), CPU and GPU", "rejax",
      lambda: _target_rejax("script_over_program", 1.15, False), 0),
