@@ -45,10 +45,10 @@ def benchmark_config(args):
                                         -(-args.batch_size // args.num_envs)))
 
 
-def throughput(parts: TrainParts, config, repeats: int) -> dict:
+def throughput(parts: TrainParts, config, iterations: int, repeats: int) -> dict:
     """Compile seconds and median training throughput of `parts` (see the module docstring)."""
     init = jax.jit(parts.init)
-    chunk = jax.jit(parts.chunk, donate_argnums=0)
+    chunk = jax.jit(lambda r: parts.chunk(r, max_iterations=iterations), donate_argnums=0)
     runner = jax.block_until_ready(init(jax.random.key(0)))
     start = time.perf_counter()
     chunk = chunk.lower(runner).compile()
@@ -62,9 +62,9 @@ def throughput(parts: TrainParts, config, repeats: int) -> dict:
         times.append(time.perf_counter() - start)
     seconds = statistics.median(times)
     return {"compile_s": round(compile_s, 2), "chunk_s": round(seconds, 5),
-            "env_steps_per_s": round(parts.chunk_iterations * config.num_envs / seconds, 1),
+            "env_steps_per_s": round(iterations * config.num_envs / seconds, 1),
             "updates_per_s": round(
-                parts.chunk_iterations * config.updates_per_step / seconds, 2)}
+                iterations * config.updates_per_step / seconds, 2)}
 
 
 def main(argv=None):
@@ -84,9 +84,10 @@ def main(argv=None):
     source = provenance()
     config = benchmark_config(args)
     devices = jax.local_devices()
-    one = throughput(make_train_parts(config), config, args.repeats)
+    one = throughput(make_train_parts(config), config, args.iterations, args.repeats)
     mesh = parallel.make_mesh(parallel.DATA, devices)
-    spread = throughput(parallel.make_data_parallel_parts(config, mesh), config, args.repeats)
+    spread = throughput(parallel.make_data_parallel_parts(config, mesh), config,
+                        args.iterations, args.repeats)
     result = {
         "benchmark": "data_parallel", "jax": jax.__version__,
         "device_kind": devices[0].device_kind, "devices": len(devices),

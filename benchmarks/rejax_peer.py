@@ -112,9 +112,9 @@ def main() -> None:
               f"{statistics.mean(ours['final_per_seed']):.1f}; script run {warm['run_s']:.2f} s "
               f"(wall {cold['wall_s']:.1f} s cold, {warm['wall_s']:.1f} s warm); script/program "
               f"{row['script_over_program']}", flush=True)
-    parts = make_train_parts(CONFIG)  # the script dispatches num_chunks programs of this length
+    parts = make_train_parts(CONFIG)  # the script dispatches num_chunks programs
     write_result(result_name("rejax_peer"), dict(
-        rejax_side=rejax, rows=rows, our_flags=FLAGS, chunk_iterations=parts.chunk_iterations,
+        rejax_side=rejax, rows=rows, our_flags=FLAGS, num_iterations=parts.num_iterations,
         num_chunks=parts.num_chunks), source)
 
 

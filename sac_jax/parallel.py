@@ -164,12 +164,12 @@ def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
         runner = jax.vmap(share, out_axes=DATA_AXES, axis_name=axis)(jnp.arange(mesh.size))
         return _constrain(runner, DATA_AXES, mesh)
 
-    def chunk(runner: RunnerState) -> RunnerState:
-        runner = jax.vmap(parts.chunk, in_axes=(DATA_AXES,), out_axes=DATA_AXES,
-                          axis_name=axis)(_constrain(runner, DATA_AXES, mesh))
+    def chunk(runner: RunnerState, max_iterations: Optional[int] = None) -> RunnerState:
+        runner = jax.vmap(lambda r: parts.chunk(r, max_iterations), in_axes=(DATA_AXES,),
+                          out_axes=DATA_AXES, axis_name=axis)(_constrain(runner, DATA_AXES, mesh))
         return _constrain(runner, DATA_AXES, mesh)
 
-    return TrainParts(init=init, chunk=chunk, chunk_iterations=parts.chunk_iterations,
+    return TrainParts(init=init, chunk=chunk, num_iterations=parts.num_iterations,
                       num_chunks=parts.num_chunks)
 
 

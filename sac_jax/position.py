@@ -21,8 +21,8 @@ class Position:
         resume, reading the checkpoint), summed over resumes; run_s: training seconds,
         compile excluded; host_s: of those, the host's work between chunks;
     walls: {environment step of an evaluation point: run_s when the host reached it};
-    non_finite: {run index: environment step where its state first became non-finite} (a
-        sweep trains on past a diverged setting);
+    non_finite: {run index: environment step at the end of the chunk in which its state first
+        became non-finite} (a sweep trains on past a diverged setting);
     ends_run: whether the run ends at this position (its last point, or a stop): a checkpoint
         writer saves such a position whatever its interval."""
 

@@ -3,8 +3,8 @@ progress, check that the state stays finite, stop cleanly on request, and resume
 
 The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`; for one seed, `chunk` itself with the
 seed axis taken off and put back, `sac_jax.parallel.over_seed_axis`) from
-`sac_jax.train.make_train_parts`: a scan over a fixed number of iterations that evaluates where
-an evaluation period ends. The host calls it repeatedly (donating the state, so the replay
+`sac_jax.train.make_train_parts`: the iterations up to the next boundary (the prefill's end or
+the next evaluation point, evaluated there). The host calls it once per boundary (donating the state, so the replay
 buffers are updated in place), and between calls reads the evaluation points, checks for
 non-finite parameters and polls `should_stop`. The program holds no host callback, so JAX's
 persistent compilation cache keeps it. Because each chunk is a pure function of the state, a run
@@ -62,7 +62,7 @@ class RunResult:
     `wall_s` (training seconds, compile excluded, at each point) and `steps_per_s` (environment
     steps per second of one seed) added to the program's metrics;
     `status`: FINISHED, INTERRUPTED (`should_stop` said so) or NON_FINITE (`message` says which
-    quantity, seed and step); `position`: where the host loop ended."""
+    quantity, seed, and the chunk's environment steps); `position`: where the host loop ended."""
 
     state: RunnerState
     metrics: Dict[str, np.ndarray]
@@ -237,8 +237,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     A parameter, optimiser state or temperature that becomes non-finite ends the run as
     NON_FINITE without calling `on_checkpoint` again, so the last saved checkpoint stays good;
     unless not `stop_on_non_finite` (a sweep, where one setting may diverge): then the others
-    train on, and the summary's `non_finite_at_step` says where each seed's state became
-    non-finite (its delivered actor stays the last one confirmed before).
+    train on, and the summary's `non_finite_at_step` gives, per seed, the end of the chunk (the
+    environment step of the evaluation point, or of the prefill's end) in which its state
+    became non-finite (its delivered actor stays the last one confirmed before).
     """
     configs, values = hyperparams.sweep(config, settings, seeds)
     config, seed_keys, seeds = configs[0], seeds, seeds * len(configs)
@@ -273,7 +274,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         return config.stop_when_solved and bool(np.all(jax.device_get(state.stopped)))
 
     points = points_reached(runner)
-    while position.chunks_done < parts.num_chunks and not all_stopped(runner):
+    finished = lambda state: int(state.iteration) >= parts.num_iterations
+    while not finished(runner) and not all_stopped(runner):
+        start_steps = int(runner.iteration) * config.num_envs
         runner = chunk(runner)
         position.chunks_done += 1
         new_points = points_reached(runner)
@@ -287,7 +290,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         if bad is not None:
             steps = int(runner.iteration) * config.num_envs
             if stop_on_non_finite:
-                status, message = NON_FINITE, f"non-finite {bad} at environment step {steps}"
+                status, message = NON_FINITE, (f"non-finite {bad} between environment steps "
+                                               f"{start_steps} and {steps}")
                 break
             finite_runs = np.all([np.broadcast_to(f, (seeds,))  # shared counters: one flag
                                   for f in jax.tree_util.tree_leaves(jax.device_get(flags))],
@@ -307,12 +311,11 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                          position.run_s)
         stop = should_stop is not None and should_stop()
         position.env_steps = int(runner.iteration) * config.num_envs
-        position.ends_run = bool(stop or position.chunks_done >= parts.num_chunks
-                                    or all_stopped(runner))
+        position.ends_run = bool(stop or finished(runner) or all_stopped(runner))
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
             on_checkpoint(runner, position)
         position.host_s += time.perf_counter() - host_start
-        if stop and position.chunks_done < parts.num_chunks:
+        if stop and not finished(runner):
             steps = int(runner.iteration) * config.num_envs
             status, message = INTERRUPTED, f"stopped at environment step {steps}"
             break

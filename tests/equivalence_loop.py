@@ -42,10 +42,12 @@ from references.cleanrl_sac import CleanRLSAC
 HIDDEN = 64
 # Seed 002's SAC on Pendulum-v1 (pure JAX, compiles quickly; episodes truncated at 200 steps),
 # small networks, 512 environment steps after learning starts; a replay capacity below the run's
-# steps, so the ring buffer wraps around while learning. "seed" has the seed's loop shape (one
-# environment, one update per step); "vector" two environments and two updates per step.
+# steps, so the ring buffer wraps around while learning; an evaluation point every 128 steps,
+# so the host drives 5 chunks (the prefill, then one per point), each compared at its end.
+# "seed" has the seed's loop shape (one environment, one update per step); "vector" two
+# environments and two updates per step.
 _BASE = sac_jax.PRESETS["cleanrl"].replace(
-    env="Pendulum-v1", learning_starts=128, total_steps=640, eval_every=512, eval_episodes=1,
+    env="Pendulum-v1", learning_starts=128, total_steps=640, eval_every=128, eval_episodes=1,
     buffer_size=384, batch_size=64, actor_hidden=(HIDDEN, HIDDEN),
     critic_hidden=(HIDDEN, HIDDEN))
 CONFIGS = {
@@ -85,8 +87,8 @@ passes global_step + 1 to the update (the actor block on the other half of the u
 def _run_reference(config, env, initial_env, draws, torch_dtype, key_seed, ours, mutation=None
                    ) -> Dict[str, object]:
     """Seed 002's loop from the same initial weights (seed `key_seed`) and environment state;
-    the errors against `ours` (sac_jax's runner after each chunk of `chunk_iterations`
-    iterations) at the end, and the parameter errors at every chunk's end."""
+    the errors against `ours` (sac_jax's runner after each chunk) at the end, and the
+    parameter errors at every chunk's end."""
     ref = CleanRLSAC(env.observation_size, env.action_size, env.action_low, env.action_high,
                      seed=key_seed, dtype=torch_dtype, hidden=HIDDEN)
     if mutation == "policy_delay_phase":
@@ -96,11 +98,11 @@ def _run_reference(config, env, initial_env, draws, torch_dtype, key_seed, ours,
     rb = buffer_class(config.buffer_size, env.observation_size, env.action_size, config.num_envs)
     steps = loop.train(ref, loop.JaxVectorEnv(envs.VectorEnv(env, config.num_envs), initial_env),
                        rb, draws, config.prefill_iterations, torch_dtype)
-    chunk_iterations = len(draws["random_action"]) // len(ours)
+    ours_at = {int(runner.iteration): runner for runner in ours}
     by_chunk = []
     for iterations, updates in enumerate(steps, start=1):
-        if iterations % chunk_iterations == 0:
-            by_chunk.append(_errors(ours[iterations // chunk_iterations - 1], ref, rb, updates))
+        if iterations in ours_at:
+            by_chunk.append(_errors(ours_at[iterations], ref, rb, updates))
     return dict(by_chunk[-1], params_by_chunk=[e["params"] for e in by_chunk])
 
 

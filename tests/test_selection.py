@@ -120,7 +120,7 @@ def test_a_solved_seed_no_longer_changes(solved_at_once):
         runner = chunk(runner)
     assert bool(runner.stopped)
     at_stop = jax.device_get(runner)
-    for _ in range(parts.num_chunks - int(runner.iteration) // parts.chunk_iterations):
+    while int(runner.iteration) < parts.num_iterations:
         runner = chunk(runner)
     end = jax.device_get(runner)
     for name in ("actor_params", "critic_params", "critic_target_params", "actor_opt_state",

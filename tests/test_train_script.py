@@ -297,7 +297,7 @@ def test_a_non_finite_state_stops_the_run_and_keeps_the_last_good_checkpoint(run
     err = capsys.readouterr().err.strip()
     # the critic's targets overflow first; the actor, which reads the critic, follows in the
     # same update and comes first in the state's order: the first to go non-finite is named
-    assert err.startswith("error: non-finite critic_") and "of seed 0 at environment step 3000" in err
+    assert err.startswith("error: non-finite critic_") and "of seed 0 between environment steps 2000 and 3000" in err
     assert "the last checkpoint written (step 2000) is kept" in err and "\n" not in err
     assert run_checkpoint.saved_steps(diverging) == [2000]
     for a, b in zip(_checkpoint_arrays(diverging), good, strict=True):
