@@ -25,6 +25,8 @@ class MjxEnv(Env):
     ``dt = frame_skip * timestep``, exactly like Gymnasium's ``MujocoEnv.do_simulation``.
     """
 
+    simulates_mujoco = True
+
     def __init__(
         self,
         name: str,

@@ -75,6 +75,8 @@ class PlaygroundTask(Env):
     impl: "jax" (MJX, the default) or "warp" (MuJoCo Warp).
     """
 
+    simulates_mujoco = True
+
     def __init__(self, name: str, *, impl: str = "jax"):
         if impl not in ("jax", "warp"):
             raise ValueError(f"{name}: impl={impl!r}; expected 'jax' (MJX) or 'warp'")

@@ -10,11 +10,11 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import functools
+import importlib
 import inspect
 from typing import Callable, Literal, Optional
 
-from envs import cartpole, playground
-from envs.double_pendulum import InvertedDoublePendulum
+from envs import playground
 from envs.pendulum import Pendulum
 from envs.types import Env
 
@@ -44,14 +44,39 @@ class EnvSpec:
     renderer: Literal["mujoco", "pendulum"]
 
 
+class _Deferred:
+    """The factory `module.attribute` (`variant`: the name of one of the module's cart-pole
+    variants, passed as `variant=`), imported when first called or inspected: the MJX
+    environments' modules import MuJoCo XLA, which costs a process about 1 s at start and 0.25 s
+    at exit (2 s and 0.9 s where Warp is installed), and a Pendulum-v1 run needs none of it."""
+
+    def __init__(self, module: str, attribute: str, variant: Optional[str] = None):
+        self._where = (module, attribute, variant)
+
+    def _factory(self) -> Callable[..., Env]:
+        module, attribute, variant = self._where
+        module = importlib.import_module(module)
+        factory = getattr(module, attribute)
+        return factory if variant is None else functools.partial(
+            factory, variant=getattr(module, variant))
+
+    def __call__(self, *args, **kwargs) -> Env:
+        return self._factory()(*args, **kwargs)
+
+    @property
+    def __signature__(self) -> inspect.Signature:
+        return inspect.signature(self._factory())
+
+
 SPECS = {spec.name: spec for spec in (
-    EnvSpec("InvertedPendulum-v5", functools.partial(cartpole.CartPole, variant=cartpole.V5),
+    EnvSpec("InvertedPendulum-v5", _Deferred("envs.cartpole", "CartPole", "V5"),
             950.0, "InvertedPendulum-v5", "mujoco"),
-    EnvSpec("InvertedPendulum-v4", functools.partial(cartpole.CartPole, variant=cartpole.V4),
+    EnvSpec("InvertedPendulum-v4", _Deferred("envs.cartpole", "CartPole", "V4"),
             950.0, "InvertedPendulum-v4", "mujoco"),
-    EnvSpec("InvertedPendulumBullet-v0",
-            functools.partial(cartpole.CartPole, variant=cartpole.BULLET), 950.0, None, "mujoco"),
-    EnvSpec("InvertedDoublePendulum-v5", InvertedDoublePendulum, 9000.0,
+    EnvSpec("InvertedPendulumBullet-v0", _Deferred("envs.cartpole", "CartPole", "BULLET"),
+            950.0, None, "mujoco"),
+    EnvSpec("InvertedDoublePendulum-v5",
+            _Deferred("envs.double_pendulum", "InvertedDoublePendulum"), 9000.0,
             "InvertedDoublePendulum-v5", "mujoco"),
     EnvSpec("Pendulum-v1", Pendulum, -250.0, "Pendulum-v1", "pendulum"),
 )}

@@ -54,7 +54,13 @@ class Env:
     training program calls them from several places (vectorised stepping, auto-reset,
     evaluation), and a jitted function is traced once per input shape and reused at each call
     site, which cuts the Python tracing time of an MJX training program.
+
+    ``simulates_mujoco``: whether the step runs MuJoCo physics (MJX or MuJoCo Warp), whose
+    traced step makes most of a training program (`sac_jax.compilation_cache` compiles such
+    programs differently on a CPU).
     """
+
+    simulates_mujoco = False
 
     def __init__(
         self,

@@ -41,11 +41,19 @@ def program_directory() -> Optional[str]:
     return os.path.join(directory, "programs")
 
 
-CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
-"""XLA options for compiling the training program on a CPU: XLA's older LLVM emitters compile the
-MJX training chunk in about 18 s instead of 27 s and run it as fast (BENCHMARKS.md)."""
+MUJOCO_CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+"""XLA options for compiling, on a CPU, the training program of an environment that simulates
+MuJoCo (`envs.Env.simulates_mujoco`): XLA's older LLVM emitters. 2 CPU cores, `fast` preset
+(InvertedPendulum-v5): the chunk compiles in 16.1 s instead of 21.1 s and trains its first 768
+iterations in 2.2-2.3 s instead of 1.8-1.9 s, so a first run reaches its solved policy about 4 s
+sooner (later runs read the compiled program from the cache). For environments without MuJoCo
+XLA's default is kept: rejax's Pendulum-v1 configuration compiles in 4.3 s instead of 2.9 s but
+trains 10,000 steps in 7.0 s instead of 8.8 s."""
 
 
-def compiler_options() -> dict:
-    """Options for `jax.stages.Lowered.compile` on the default backend."""
-    return dict(CPU_COMPILER_OPTIONS) if jax.default_backend() == "cpu" else {}
+def compiler_options(env) -> dict:
+    """Options for `jax.stages.Lowered.compile` of a training program on `env` on the default
+    backend."""
+    if jax.default_backend() == "cpu" and env.simulates_mujoco:
+        return dict(MUJOCO_CPU_COMPILER_OPTIONS)
+    return {}

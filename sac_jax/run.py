@@ -174,7 +174,7 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     parts = make_train_parts(config, one_evaluation=seeds > 1)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
     values = {name: jax.ShapeDtypeStruct((seeds,), jnp.asarray(0.0).dtype) for name in swept}
-    options = compiler_options()
+    options = compiler_options(config.make_env())
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES).lower(
         keys, *([values] if swept else []))
     state = init.out_info
