@@ -22,6 +22,8 @@
 #          data parallel over all; without flags, four sizes, one process each)
 #        bash benchmarks/gpu.sh brax|brax-cpu [brax_peer.py options, e.g. --seeds 2]
 #        bash benchmarks/gpu.sh torch [torch_time_to_solve.py options] (CPU)
+#        bash benchmarks/gpu.sh rejax [rejax_peer.py flags] (rejax's tuned Pendulum-v1 SAC and
+#          ours, 1 and 256 seeds; `gpu_wheels.sh rejax`)
 #        bash benchmarks/gpu.sh sweep [benchmarks/sweep.py flags] (64 settings x 4 seeds of fast
 #          in one program against one seed's run; the delivered mode's wheels)
 #        bash benchmarks/gpu.sh presets [presets_delivered.py flags] (4 seeds of each preset,
@@ -49,7 +51,7 @@ export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
 export SAC_JAX_BENCHMARK_VIA="bash benchmarks/gpu.sh $*"  # recorded beside each file's command
 SAC_JAX_RESULTS_DIR=$(mktemp -d /tmp/results.XXXXXX); export SAC_JAX_RESULTS_DIR
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader
-python3 -c "import jax, mujoco, flax, optax, distrax; print('jax', jax.__version__, jax.devices())"
+python3 -c "import jax, flax, optax, distrax; print('jax', jax.__version__, jax.devices())"
 rc=0
 run() { "$@" || rc=$?; }  # runs one benchmark; the mode's status is its last failure's
 mode=${1:-}; shift
@@ -91,6 +93,11 @@ from mujoco_playground import registry" || exit 1
     run python3 -m benchmarks.preset_search "$@" ;;
   torch)
     run python3 -m benchmarks.torch_time_to_solve "$@" ;;
+  rejax)
+    python3 -c "import tyro, orbax.checkpoint, rejax, gymnax" || exit 1
+    # the benchmark holds JAX on the GPU while scripts/train.py runs in a subprocess
+    export XLA_PYTHON_CLIENT_PREALLOCATE=false
+    run python3 -m benchmarks.rejax_peer --rejax-python python3 --seeds 1 256 "$@" ;;
   delivered)
     python3 -c "import tyro, tensorboard, orbax.checkpoint, gymnasium; from mujoco import mjx
 gymnasium.make('InvertedPendulum-v5').close()" || exit 1

@@ -7,6 +7,8 @@
 #        bash benchmarks/gpu_wheels.sh playground # brax's and MuJoCo Playground (playground modes;
 #          pip install -e ".[playground]" first). Warp stays out: warp-lang's wheel (136 MB) is
 #          over the device tool's 64 MiB carry, and Playground's MJX tasks run without it.
+#        bash benchmarks/gpu_wheels.sh rejax      # rejax's peer (rejax mode): ours without MuJoCo
+#          (Pendulum-v1 needs none), and rejax 0.1.3 with gymnax 0.0.9 (the image has the rest)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
@@ -17,10 +19,17 @@ case "${1:-}" in
   playground)  # without the packages the image has (tensorstore, tensorboard, ...), to fit
     names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
 gast tyro docstring-parser typeguard orbax-checkpoint brax jaxopt ml_collections playground" ;;
+  rejax)
+    names="flax optax distrax tfp-nightly dm-tree decorator gast tyro docstring-parser typeguard
+orbax-checkpoint gymnasium farama-notifications rejax==0.1.3 gymnax==0.0.9" ;;
 esac
 mkdir -p .whl
 for name in $names; do
-  version=$(python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" "$name")
+  case "$name" in  # a name with its version pinned here, or at the active environment's
+    *==*) version=${name#*==}; name=${name%%==*} ;;
+    *) version=$(python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" \
+         "$name") ;;
+  esac
   python -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
     --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 \
     --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 \

@@ -7,19 +7,25 @@ pendulum.yaml: 1 env, buffer 10,000, fill 256, batch 256, lr 0.01, 1 update per 
 steps, gamma 0.99, polyak 0.98, swish activations, observation normalisation), evaluated every
 `--eval-freq` steps over rejax's 128 episodes. For each `--seeds` count: `jax.jit` of `train`
 (vmapped over seeds where more than one), its compile time (`lower(...).compile()`), the median
-run time of `--repeats` calls, and per evaluation point the mean return over seeds.
+run time of `--repeats` calls, and per evaluation point the mean return over seeds; for the
+first count also `to_result_s`, from this process's start (before JAX is imported) to the end of
+its first trained result (imports, JAX's start, compile and the first call): what a user of
+rejax waits for one run (rejax_peer.py runs one process per count).
 
     /path/to/rejax-venv/bin/python benchmarks/rejax_side.py --seeds 1 16
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import statistics
 import time
 
-import jax
+STARTED = time.perf_counter()
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import statistics  # noqa: E402
+
+import jax  # noqa: E402
 
 CONFIG = dict(env="Pendulum-v1", agent_kwargs={"activation": "swish"}, num_envs=1,
               buffer_size=10_000, fill_buffer=256, batch_size=256, learning_rate=0.01,
@@ -45,10 +51,12 @@ def timed(train, seeds: int, repeats: int):
 
 
 def measure(algo, seeds: int, repeats: int) -> dict:
+    before = time.perf_counter() - STARTED
     compile_s, times, (_, (_, returns)) = timed(algo.train, seeds, repeats)
     per_seed = returns.reshape(seeds, -1, returns.shape[-1]).mean(-1)  # (seeds, points)
     curve = per_seed.mean(0)
-    return dict(seeds=seeds, compile_s=round(compile_s, 3),
+    return dict(seeds=seeds, to_result_s=round(before + compile_s + times[0], 3),
+                compile_s=round(compile_s, 3),
                 run_s=round(statistics.median(times), 3), run_times_s=[round(t, 3) for t in times],
                 eval_steps=[i * algo.eval_freq for i in range(curve.size)],
                 mean_return=[round(float(r), 1) for r in curve],
@@ -65,6 +73,8 @@ def main() -> None:
 
     algo = rejax.SAC.create(**CONFIG, eval_freq=args.eval_freq)
     runs = [measure(algo, n, args.repeats) for n in args.seeds]
+    for run in runs[1:]:  # started after the first count's runs: not one user's wait
+        del run["to_result_s"]
     print(json.dumps(dict(rejax=rejax.__version__ if hasattr(rejax, "__version__") else "0.1.3",
                           jax=jax.__version__, device=jax.devices()[0].device_kind,
                           config=CONFIG, eval_freq=args.eval_freq, runs=runs)))

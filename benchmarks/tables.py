@@ -638,16 +638,19 @@ def rejax() -> str:
             out.append([where, r["seeds"], f"{j['compile_s']:.1f} + {j['run_s']:.2f} s",
                         f"{p['compile_s']:.1f} + {p['run_s']:.2f} s",
                         f"{warm['run_s']:.2f} s ({r['script_over_program']:.2f}x)",
-                        f"{cold['wall_s']:.1f} / {warm['wall_s']:.1f} s",
-                        f"{r['rejax_over_script_end_to_end']:.2f}x",
+                        f"{j['to_result_s']:.1f} / {cold['to_result_s']:.1f} / "
+                        f"{warm['to_result_s']:.1f} s",
+                        f"{r['rejax_over_script_to_result_cold']:.2f}x / "
+                        f"{r['rejax_over_script_to_result_warm']:.2f}x",
                         f"{_mean(j['final_return_per_seed']):.0f} / {_mean(p['final_per_seed']):.0f}"])
         return out
 
     return _sources([(_find("rejax_peer-cpu"), "python -m benchmarks.rejax_peer --rejax-python "
                       "PATH"), (_gpu("rejax_peer"), "python -m benchmarks.rejax_peer on a GPU")],
                     ["machine", "seeds", "rejax: compile + run", "our program: compile + run",
-                     "our script: run (/ program)", "our script: wall cold / warm",
-                     "rejax (compile + run) / our script's warm wall", "final return rejax / ours"],
+                     "our script: run (/ program)",
+                     "process start to result: rejax / ours cold / ours warm",
+                     "rejax / ours, cold / warm", "final return rejax / ours"],
                     rows)
 
 
@@ -776,9 +779,9 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("`scripts/train.py` run time ≤ 1.15x the jitted `make_train` of the same config, "
      "evaluating every 500 steps (rejax's Pendulum-v1 SAC), CPU and GPU", "rejax",
      lambda: _target_rejax("script_over_program", 1.15, False), 0),
-    ("End to end through `scripts/train.py` (warm): ≥ 2x rejax (compile + run), 1 and 16 seeds on "
-     "2 CPU cores, 1 and 256 on one H100", "rejax",
-     lambda: _target_rejax("rejax_over_script_end_to_end", 2.0, True), 0),
+    ("End to end through `scripts/train.py` (warm cache): ≥ 2x rejax, each from its process's "
+     "start to its trained result, 1 and 16 seeds on 2 CPU cores, 1 and 256 on one GPU", "rejax",
+     lambda: _target_rejax("rejax_over_script_to_result_warm", 2.0, True), 0),
     ("Playground adapter overhead ≤ 5 % of the raw task step (pendulum family, CPU and GPU)",
      "MuJoCo Playground", _target_playground_adapter, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",

@@ -42,7 +42,11 @@ def _code_fingerprint() -> str:
     """Hash of the Python and package versions and of the source files of SOURCE_PACKAGES."""
     digest = hashlib.sha256(sys.version.encode())
     for name in PACKAGES:
-        digest.update(f"{name}=={importlib.metadata.version(name)}".encode())
+        try:
+            version = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:  # e.g. no MuJoCo for Pendulum-v1 alone
+            version = "absent"
+        digest.update(f"{name}=={version}".encode())
     for package in SOURCE_PACKAGES:
         root = os.path.dirname(sys.modules[package].__file__)
         for folder, dirs, files in sorted(os.walk(root)):
