@@ -14,7 +14,7 @@ import importlib
 import inspect
 from typing import Callable, Literal, Optional
 
-from envs import playground
+from envs import brax_tasks, playground
 from envs.pendulum import Pendulum
 from envs.types import Env
 
@@ -84,8 +84,10 @@ SPECS = {spec.name: spec for spec in (
 
 def registered() -> tuple[str, ...]:
     """Names accepted by :func:`make`: ours, then MuJoCo Playground's DeepMind Control Suite
-    tasks as ``playground/<Task>`` (envs/playground.py; they need the ``playground`` extra)."""
-    return tuple(SPECS) + tuple(playground.PREFIX + task for task in playground.TASKS)
+    tasks as ``playground/<Task>`` (envs/playground.py; they need the ``playground`` extra),
+    then Brax's environments as ``brax/<task>`` (envs/brax_tasks.py)."""
+    return (tuple(SPECS) + tuple(playground.PREFIX + task for task in playground.TASKS)
+            + tuple(brax_tasks.PREFIX + task for task in brax_tasks.TASKS))
 
 
 def spec(name: str) -> EnvSpec:
@@ -94,11 +96,15 @@ def spec(name: str) -> EnvSpec:
         task = playground.task_name(name)
         return EnvSpec(name, playground.PlaygroundTask, playground.SOLVED.get(task), None,
                        "mujoco")
+    if name.startswith(brax_tasks.PREFIX):
+        brax_tasks.task_name(name)
+        return EnvSpec(name, brax_tasks.BraxTask, None, None, "mujoco")
     if name not in SPECS:
         close = difflib.get_close_matches(name, registered(), n=3, cutoff=0.6)
         raise ValueError(f"unknown environment {name!r}; "
                          + (f"did you mean {', '.join(close)}?" if close
-                            else f"registered: {', '.join(SPECS)} and playground/<Task>"))
+                            else f"registered: {', '.join(SPECS)}, playground/<Task> and "
+                            "brax/<task>"))
     return SPECS[name]
 
 

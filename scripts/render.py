@@ -69,6 +69,7 @@ import envs  # noqa: E402
 import sac_jax  # noqa: E402
 from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
+from envs.task_adapter import TaskAdapter  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
 from sac_jax.cli import MissingDependency, fail, parse, positive  # noqa: E402
 
@@ -116,7 +117,8 @@ def rollout(policy: sac_jax.SavedPolicy, env, key: jax.Array, steps: int):
     def pose(data):
         if isinstance(data, PendulumData):
             return data.theta
-        return getattr(data, "data", data).qpos  # a Playground task's State holds its MJX data
+        # an adapted task's state (Playground's, Brax's) holds its MJX data
+        return (env.physics(data) if isinstance(env, TaskAdapter) else data).qpos
 
     @jax.jit  # the parameters are an argument, not constants: the compilation cache keeps it
     def run(actor_params, key):

@@ -1,0 +1,62 @@
+"""Brax's environments as ours, by name: ``envs.make("brax/ant")``.
+
+Brax (a dependency of sac-jax) is imported on the first ``make`` of such a name only. Each task
+is Brax's environment on its MJX pipeline (``brax.envs.get_environment(task, backend="mjx")``)
+with none of Brax's training wrappers; the adapter (`envs.task_adapter.TaskAdapter`) makes the
+1000-step limit of Brax's ``EpisodeWrapper`` (``brax.envs.create``'s default) a truncation with
+the true final observation, and Brax's ``done`` (an unhealthy body, where the task has that
+rule) a termination. Actions are in the actuators' ``ctrlrange``.
+
+Brax no longer maintains its environments (a notice it prints on loading one, silenced here);
+MuJoCo Playground (``playground/<Task>``, envs/playground.py) holds the maintained MJX tasks.
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import warnings
+
+from envs.task_adapter import TaskAdapter
+
+PREFIX = "brax/"
+
+TASKS = ("ant", "halfcheetah", "hopper", "humanoid", "humanoidstandup",
+         "inverted_double_pendulum", "inverted_pendulum", "pusher", "reacher", "swimmer",
+         "walker2d")
+"""Brax 0.14.2's MuJoCo environments (`brax.envs._envs` without its test task "fast", checked
+by tests/test_brax_tasks.py), listed here so that naming them needs no import."""
+
+EPISODE_LENGTH = 1000
+"""Steps before a truncation: `brax.envs.create`'s default `episode_length`."""
+
+
+def task_name(name: str) -> str:
+    """The Brax environment of ``brax/<task>``; ValueError naming close names if unknown."""
+    task = name[len(PREFIX):]
+    if task not in TASKS:
+        close = difflib.get_close_matches(task, TASKS, n=3, cutoff=0.5)
+        hint = (f"did you mean {', '.join(PREFIX + c for c in close)}?" if close
+                else f"known: {', '.join(PREFIX + t for t in TASKS)}")
+        raise ValueError(f"unknown Brax environment {name!r}; {hint}")
+    return task
+
+
+@functools.lru_cache(maxsize=None)
+def _load(task: str):
+    from brax import envs as brax_envs
+    with warnings.catch_warnings():  # Brax's notice that its environments are unmaintained
+        warnings.filterwarnings("ignore", "Brax System, piplines and environments")
+        return brax_envs.get_environment(task, backend="mjx")
+
+
+class BraxTask(TaskAdapter):
+    """One Brax environment behind our `Env` interface (see the module docstring)."""
+
+    def __init__(self, name: str):
+        task = _load(task_name(name))
+        super().__init__(name, task, task.sys.mj_model, EPISODE_LENGTH, task.dt)
+
+    @staticmethod
+    def physics(data):
+        return data.pipeline_state

@@ -1,0 +1,112 @@
+"""Brax environments by name (envs/brax_tasks.py): the adapter against the Brax environment
+stepped directly (same draws, same observations and rewards; Brax's `done` a termination; the
+1000-step limit a truncation that keeps the true final observation; actions clipped to the
+actuators' bounds; fresh random starts), the one-line error for an unknown name, and a short
+CPU run whose delivered policy balances in Brax's environment itself."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import envs
+import sac_jax
+from envs import brax_tasks
+from sac_jax.run import run_training
+from sac_jax.train import agent_for
+
+NAME = "brax/inverted_pendulum"
+
+
+@pytest.fixture(scope="module")
+def env():
+    return envs.make(NAME)
+
+
+def test_the_task_list_is_braxs():
+    from brax import envs as brax_envs
+
+    assert set(brax_tasks.TASKS) == set(brax_envs._envs) - {"fast"}
+    assert set(envs.registered()) >= {brax_tasks.PREFIX + t for t in brax_tasks.TASKS}
+    assert envs.spec(NAME).solved_return is None and envs.spec(NAME).gymnasium_id is None
+
+
+def test_steps_are_the_tasks_own_and_done_terminates(env):
+    """A fixed action sequence through the adapter and through Brax's environment from the
+    same key: equal observations and rewards at every step, and the adapter terminates exactly
+    where Brax's `done` is first set (the pole falls under these pushes)."""
+    task = brax_tasks._load("inverted_pendulum")
+    actions = jnp.full((200, 1), 0.5)
+
+    def ours(state, action):
+        state = env.step(state, action)
+        return state, (state.obs, state.reward, state.terminated, state.truncated)
+
+    def theirs(state, action):
+        state = task.step(state, action)
+        return state, (state.obs, state.reward, state.done)
+
+    key = jax.random.key(3)
+    _, (obs, reward, terminated, truncated) = jax.jit(
+        lambda: jax.lax.scan(ours, env.reset(key), actions))()
+    _, (task_obs, task_reward, done) = jax.jit(
+        lambda: jax.lax.scan(theirs, task.reset(key), actions))()
+    np.testing.assert_array_equal(env.reset(key).obs, task.reset(key).obs)
+    end = int(np.argmax(np.asarray(done) > 0))
+    assert 0 < end < 200 and bool(terminated[end]) and not np.any(terminated[:end])
+    np.testing.assert_array_equal(obs[:end + 1], task_obs[:end + 1])
+    np.testing.assert_array_equal(reward[:end + 1], task_reward[:end + 1])
+    assert not np.any(truncated)
+
+
+def test_the_limit_truncates_with_the_final_observation(env):
+    """Near the limit, a step that ends the episode by time truncates (not terminates) and
+    returns the task's own next observation."""
+    state = env.reset(jax.random.key(0))
+    late = state.replace(step_count=jnp.int32(env.max_episode_steps - 1))
+    after = jax.jit(env.step)(late, jnp.zeros(1))
+    assert env.max_episode_steps == brax_tasks.EPISODE_LENGTH == 1000
+    assert bool(after.truncated) and not bool(after.terminated)
+    np.testing.assert_array_equal(after.obs, brax_tasks._load("inverted_pendulum").step(
+        state.data, jnp.zeros(1)).obs)
+
+
+def test_actions_are_clipped_to_the_actuators_bounds_and_resets_draw_fresh_starts(env):
+    model = brax_tasks._load("inverted_pendulum").sys.mj_model
+    np.testing.assert_array_equal(env.action_low, model.actuator_ctrlrange[:, 0])
+    np.testing.assert_array_equal(env.action_high, model.actuator_ctrlrange[:, 1])
+    state = env.reset(jax.random.key(0))
+    beyond = env.action_high * 4
+    np.testing.assert_array_equal(env.step(state, beyond).obs,
+                                  env.step(state, env.action_high).obs)
+    after = env.step(state, jnp.array([jnp.nan]))
+    assert bool(after.terminated) and np.all(np.isfinite(after.obs))
+    starts = jax.vmap(env.reset)(jax.random.split(jax.random.key(0), 8)).obs
+    assert len({tuple(np.asarray(o)) for o in starts}) == 8
+
+
+def test_an_unknown_brax_name_fails_in_one_line():
+    with pytest.raises(ValueError, match=r"^unknown Brax environment 'brax/halfcheeta'; "
+                                         r"did you mean brax/halfcheetah"):
+        envs.make("brax/halfcheeta")
+
+
+@pytest.mark.slow
+def test_the_fast_preset_delivers_a_policy_that_balances_in_braxs_own_environment():
+    """`fast` on brax/inverted_pendulum, 1 seed: the delivered actor, run deterministically in
+    Brax's environment itself (no adapter, 5 fresh starts), keeps the pole up (Brax's `done`
+    never set) for all 1000 steps of Brax's episode."""
+    config = sac_jax.PRESETS["fast"].replace(env=NAME)
+    result = run_training(config, seeds=1)
+    agent, _ = agent_for(config)
+    actor = jax.tree_util.tree_map(lambda x: x[0], result.state.delivered.actor_params)
+    task = brax_tasks._load("inverted_pendulum")
+
+    def episode(key):
+        def step(state, _):
+            state = task.step(state, agent.act(actor, state.obs[None])[0])
+            return state, state.done
+        return jax.lax.scan(step, task.reset(key), length=brax_tasks.EPISODE_LENGTH)[1]
+
+    done = jax.jit(jax.vmap(episode))(jax.random.split(jax.random.key(2026), 5))
+    assert not np.any(done), np.argmax(done, axis=1)
