@@ -89,7 +89,7 @@ def kernel_time_by_part(trace_dir: str, names: dict, top: int) -> tuple:
 
 def profile(seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
     config = dataclasses.replace(PRESETS["fast"], hidden_dtype=hidden_dtype)
-    parts = make_train_parts(config, one_evaluation=seeds > 1)  # as sac_jax.run builds it
+    parts = make_train_parts(config)  # as sac_jax.run builds it
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
     chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
     state = init(jax.random.split(jax.random.key(0), seeds))

@@ -171,7 +171,7 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     of the same shapes in this process neither trace nor compile again; other processes find
     the compiled programs in the persistent compilation cache and, on one device, the traced
     chunk in `sac_jax.program_cache`."""
-    parts = make_train_parts(config, one_evaluation=seeds > 1)
+    parts = make_train_parts(config)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
     values = {name: jax.ShapeDtypeStruct((seeds,), jnp.asarray(0.0).dtype) for name in swept}
     options = compiler_options(config.make_env())
@@ -191,7 +191,7 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
         else:
             chunk = cached_compile(
                 over_seed_axis(parts.chunk, seeds, (SEED_AXES,), SEED_AXES),
-                f"chunk {config!r} one_evaluation={seeds > 1}", [state], state, directory,
+                f"chunk {config!r}", [state], state, directory,
                 donate_first=True,
                 compiler_options=options)
             sharding = jax.local_devices()[0]

@@ -22,7 +22,7 @@ task's solved return) stops learning: its learner state and kept actor no longer
 
 from __future__ import annotations
 
-from typing import Any, Callable, Tuple
+from typing import Any, Tuple
 
 import flax.struct
 import jax
@@ -48,17 +48,16 @@ def init(actor_params) -> Delivered:
                      env_steps=jnp.int32(-1))
 
 
-def select(delivered: Delivered, actor_params, score: jax.Array,
-           confirm: Callable[[], jax.Array], env_steps: jax.Array
-           ) -> Tuple[Delivered, jax.Array]:
+def select(delivered: Delivered, actor_params, score: jax.Array, confirmed: jax.Array,
+           env_steps: jax.Array) -> Tuple[Delivered, jax.Array]:
     """One selection step (see the module docstring): `score` is the current actor's
-    evaluation return s; `confirm()` its confirmed return c on fresh episodes, called (traced
-    into a `lax.cond` branch) only for a candidate. Returns (the kept actor after the step, c,
-    or NaN where the actor was not a candidate)."""
+    evaluation return s, `confirmed` its return c on the fresh confirmation episodes (the
+    training loop steps both sets of episodes as one batch, so c exists at every point; it
+    counts for a candidate only). Returns (the kept actor after the step, c, or NaN where the
+    actor was not a candidate)."""
     score = score.astype(jnp.float32)
     candidate = score > delivered.score
-    confirmed = jax.lax.cond(candidate, lambda: confirm().astype(jnp.float32),
-                             lambda: jnp.float32(jnp.nan))
+    confirmed = jnp.where(candidate, confirmed.astype(jnp.float32), jnp.float32(jnp.nan))
     better = candidate & (confirmed > delivered.score)
     chosen = Delivered(actor_params=actor_params, score=confirmed,
                        env_steps=jnp.asarray(env_steps, jnp.int32))

@@ -108,23 +108,21 @@ def test_a_stop_the_device_does_not_answer_in_time_leaves_the_chunk():
         run.run_training(config, should_stop=lambda: True, stop_grace_s=0.0)
 
 
-def test_one_evaluation_batch_gives_the_same_run():
-    """`one_evaluation` (what `run` uses for several seeds) steps the evaluation's and the
-    confirmation's episodes as one batch: the learners stay bit-identical (evaluation does not
-    feed training here) and every evaluation and confirmation return agrees to float32
-    rounding of a batch of another size (relative 1e-4 at most)."""
-    from sac_jax.train import make_train
+def test_an_evaluation_and_its_confirmation_in_one_batch_return_what_each_alone_does():
+    """The loop steps an evaluation's and its confirmation's episodes as one batch: each
+    episode's return is the one it has in a batch of its own set (to float32 rounding of a
+    batch of another size: relative 1e-4)."""
+    from sac_jax.evaluation import evaluate_from, initial_states
+    from sac_jax.train import agent_for
 
-    keys = jax.random.split(jax.random.key(5), 2)
-    config = CONFIG.replace(eval_episodes=2, confirm_episodes=3)
-    separate = jax.jit(jax.vmap(make_train(config)))(keys)
-    merged = jax.jit(jax.vmap(make_train(config, one_evaluation=True)))(keys)
-    for a, b in zip(jax.tree_util.tree_leaves(merged[0].sac),
-                    jax.tree_util.tree_leaves(separate[0].sac), strict=True):
-        np.testing.assert_array_equal(a, b)
-    for name in ("eval_return", "confirm_return", "delivered_return"):
-        np.testing.assert_allclose(merged[1][name], separate[1][name], rtol=1e-4)
-    assert np.isfinite(separate[1]["confirm_return"]).any()  # confirmations happened
+    agent, env = agent_for(CONFIG)
+    actor = agent.init(jax.random.key(0)).actor_params
+    start = initial_states(env, jax.random.key(1), 2)
+    confirm_start = initial_states(env, jax.random.key(2), 3)
+    both = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), start, confirm_start)
+    evaluate = jax.jit(lambda s: evaluate_from(agent, env, actor, s))
+    np.testing.assert_allclose(
+        evaluate(both), np.concatenate([evaluate(start), evaluate(confirm_start)]), rtol=1e-4)
 
 
 def test_a_checkpoints_points_are_what_the_run_reported():

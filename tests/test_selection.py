@@ -25,7 +25,7 @@ def _planted(points):
     """Runs `select` over planted points (evaluation s, confirmation c, actor id); returns the
     kept (actor id, score, step) after each point and the confirmations it reported."""
     step = jax.jit(lambda kept, actor, s, c, steps: selection.select(
-        kept, actor, s, lambda: c, steps))
+        kept, actor, s, c, steps))
     kept = selection.init(jnp.float32(-1.0))
     history, reported = [], []
     for p, (s, c, actor) in enumerate(points):
