@@ -14,6 +14,12 @@ machine, versions, date; memory-KIND.json on an accelerator, where the peak is t
 `peak_bytes_in_use`). `--largest SLOTS` adds a run of the most seeds of SLOTS slots each that
 fit (run with XLA_PYTHON_CLIENT_PREALLOCATE=false on a GPU, so that this process, which reads
 the free memory, leaves it to the runs).
+
+The runs themselves allocate as a user's run does, with JAX's default preallocation (the
+variable is removed from their environment): without it, XLA's BFC allocator grows region by
+region and hands out a whole region's chunk where splitting it would leave less than 128 MB,
+which counted as in use. An H200 measured 659 MB at peak for 10^7 slots of 44 bytes that way
+(1.54x the data), against 47.7 MB for 10^6 slots.
 """
 
 from __future__ import annotations
@@ -50,7 +56,8 @@ def peak(out: str, *flags: str, may_fail: bool = False) -> dict:
 
 def _peak(out: str, *flags: str, may_fail: bool = False) -> dict:
     argv = [sys.executable, os.path.join(ROOT, "scripts", "train.py"), "--out", out, *flags]
-    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
+    env = {k: v for k, v in os.environ.items() if k != "XLA_PYTHON_CLIENT_PREALLOCATE"}
+    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, env=env)
     if proc.returncode and may_fail:
         return {"failed": (proc.stderr.strip().splitlines() or [""])[-1][:500]}
     if proc.returncode:
