@@ -213,6 +213,11 @@ def memory() -> str:
             named = [(f"1 seed, {int(b):,} slots", m) for b, m in r["buffers"].items()] + [
                 (f"{s} seed{'s' * (int(s) > 1)}, {r['seed_buffer_size']:,} slots", m)
                 for s, m in r["seeds"].items()]
+            if "peak_device_bytes" in r.get("largest", {}) or "peak_host_bytes" in r.get(
+                    "largest", {}):  # the most seeds of a buffer the memory check accepted, run
+                m = r["largest"]
+                named.append((f"largest accepted: {m['seeds']:,} seeds, {m['buffer_size']:,} "
+                              f"slots, {m['available_bytes'] / 1e9:.1f} GB available", m))
             runs += [[where, run, f"{m[key] / 1e6:,.0f}", f"{m['memory_model_peak_bytes'] / 1e6:,.0f}",
                       f"{m['memory_model_peak_bytes'] / m[key]:.2f}"] for run, m in named]
     table = _table(["quantity", "date", "peak bytes", "data bytes", "ratio", "results"], quantities)
