@@ -14,8 +14,10 @@ as the task's array.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import functools
+import io
 
 from envs.task_adapter import TaskAdapter
 
@@ -49,7 +51,9 @@ def task_name(name: str) -> str:
 @functools.lru_cache(maxsize=None)
 def _load(task: str, impl: str):
     try:
-        from mujoco_playground import registry
+        # quiet: without Warp, MJX and Playground print "Failed to import (mujoco_)warp"
+        with contextlib.redirect_stdout(io.StringIO()):
+            from mujoco_playground import registry
     except ImportError:
         raise ValueError(f"environment {PREFIX + task!r} needs MuJoCo Playground: "
                          f"{INSTALL}") from None

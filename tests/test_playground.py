@@ -104,6 +104,16 @@ def test_unknown_names_and_a_missing_playground_fail_in_one_line(monkeypatch):
                                  "Playground: pip install -e \".[playground]\"")
 
 
+def test_building_a_task_prints_nothing_where_warp_is_missing():
+    """Without Warp (as on a machine without the extra's GPU wheel), MJX and Playground print
+    "Failed to import (mujoco_)warp" on import; building a task keeps that out of the output."""
+    code = ("import sys; sys.modules['warp'] = None; import envs; "
+            "print(envs.make('playground/CartpoleBalance').observation_size)")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300, check=True)
+    assert proc.stdout == "5\n"
+
+
 def test_the_configs_env_impl_chooses_the_tasks_backend(monkeypatch):
     """`SACConfig.env_impl` reaches `registry.load`'s `impl` (MJX by default); on our own
     environments, which have no choice, it is refused naming the field."""
