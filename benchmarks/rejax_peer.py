@@ -10,7 +10,8 @@ Ours, with the same numbers (issue 28's command):
 
 measured two ways for each `--seeds` count:
 * program: `jax.jit(make_train(config))` (vmapped over seeds), compile time and the median run
-  time of `--repeats` calls, as rejax's;
+  time of `--repeats` calls, as rejax's; and the same program evaluating at its end only
+  (`ONE_POINT`), whose difference gives the share of the run its 20 evaluations take;
 * script: `python scripts/train.py ... --seeds N` in a subprocess with a fresh compilation cache
   (cold) and again with it filled (warm): process wall time, and the summary's `run_s` (training
   after compilation), the time that issue 28 puts against the program's run time.
@@ -59,8 +60,12 @@ CONFIG = PRESETS["fast"].replace(
     stop_when_solved=False)
 
 
-def program(seeds: int, repeats: int) -> dict:
-    compile_s, times, (_, outputs) = timed(make_train(CONFIG), seeds, repeats)
+ONE_POINT = CONFIG.replace(eval_every=9_500)
+"""CONFIG evaluated at its end only: the same 9,756 iterations, one evaluation point."""
+
+
+def program(seeds: int, repeats: int, config=CONFIG) -> dict:
+    compile_s, times, (_, outputs) = timed(make_train(config), seeds, repeats)
     delivered = np.asarray(outputs["delivered_return"]).reshape(seeds, -1)
     return dict(compile_s=round(compile_s, 3), run_s=round(statistics.median(times), 3),
                 run_times_s=[round(t, 3) for t in times],
@@ -109,9 +114,14 @@ def main() -> None:
     for run in rejax["runs"]:
         n = run["seeds"]
         ours = program(n, args.repeats)
+        points = len(ours["eval_steps"])
+        # the share of the run its evaluations take: the 19 points fewer, scaled to all 20
+        evaluation_share = ((ours["run_s"] - program(n, args.repeats, ONE_POINT)["run_s"])
+                            / ours["run_s"] * points / (points - 1))
         with tempfile.TemporaryDirectory() as cache:
             cold, warm = script(n, cache), script(n, cache)
         row = dict(seeds=n, rejax=run, program=ours, script_cold=cold, script_warm=warm,
+                   evaluation_share=round(evaluation_share, 3),
                    script_over_program=round(warm["run_s"] / ours["run_s"], 3),
                    rejax_over_program=round(run["run_s"] / ours["run_s"], 3),
                    rejax_over_script_to_result_cold=round(
@@ -124,7 +134,8 @@ def main() -> None:
               f"{ours['compile_s']:.1f} + {ours['run_s']:.2f} s, delivered "
               f"{statistics.mean(ours['final_per_seed']):.1f}; script run {warm['run_s']:.2f} s "
               f"(wall {cold['wall_s']:.1f} s cold, {warm['wall_s']:.1f} s warm); script/program "
-              f"{row['script_over_program']}; to the result: rejax {run['to_result_s']:.1f} s, "
+              f"{row['script_over_program']}; evaluation {100 * evaluation_share:.1f} % of the "
+              f"program; to the result: rejax {run['to_result_s']:.1f} s, "
               f"ours {cold['to_result_s']:.1f} s cold, {warm['to_result_s']:.1f} s warm",
               flush=True)
     parts = make_train_parts(CONFIG)  # the script dispatches num_chunks programs

@@ -672,6 +672,18 @@ def _target_rejax(key: str, limit: float, above: bool):
     return names, [("; ".join(parts), met if len(names) == 2 or not met else None)]
 
 
+def _target_evaluation_share():
+    names = [n for n in (_find("rejax_peer-cpu"), _gpu("rejax_peer")) if n]
+    rows = [(name, r) for name in names for r in _load(name)["result"]["rows"]
+            if "evaluation_share" in r]
+    if not rows:
+        return None
+    met = all(r["evaluation_share"] <= 0.10 for _, r in rows)
+    return names, [("; ".join(f"{'CPU' if name.endswith('-cpu') else 'GPU'} {r['seeds']} "
+                              f"seed(s) {100 * r['evaluation_share']:.1f} %" for name, r in rows),
+                    met if len({name for name, _ in rows}) == 2 or not met else None)]
+
+
 def _mean(values) -> float:
     return sum(values) / len(values)
 
@@ -800,6 +812,8 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("`scripts/train.py` run time ≤ 1.15x the jitted `make_train` of the same config, "
      "evaluating every 500 steps (rejax's Pendulum-v1 SAC), CPU and GPU", "rejax",
      lambda: _target_rejax("script_over_program", 1.15, False), 0),
+    ("Evaluation ≤ 10 % of a run that evaluates every 500 steps (rejax's Pendulum-v1 SAC, "
+     "our program)", "rejax", _target_evaluation_share, 0),
     ("End to end through `scripts/train.py` (warm cache): ≥ 2x rejax, each from its process's "
      "start to its trained result, 1 and 16 seeds on 2 CPU cores, 1 and 256 on one GPU", "rejax",
      lambda: _target_rejax("rejax_over_script_to_result_warm", 2.0, True), 0),
