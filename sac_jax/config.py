@@ -289,6 +289,11 @@ class SACConfig:
     def prefill_iterations(self) -> int:
         return self.learning_starts // self.num_envs
 
+    @property
+    def run_iterations(self) -> int:
+        """Iterations a whole run takes: the prefill's and `num_evals` periods'."""
+        return self.prefill_iterations + self.num_evals * self.iterations_per_eval
+
     def replace(self, **changes) -> "SACConfig":
         """A copy with `changes` applied, validated anew."""
         unknown = set(changes) - {f.name for f in dataclasses.fields(self)}

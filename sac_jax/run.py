@@ -4,8 +4,8 @@ progress, check that the state stays finite, stop cleanly on request, and resume
 The compiled unit is `jax.vmap(chunk)` (axes `SEED_AXES`; for one seed, `chunk` itself with the
 seed axis taken off and put back, `sac_jax.parallel.over_seed_axis`) from
 `sac_jax.train.make_train_parts`: the iterations up to the next boundary (the prefill's end or
-the next evaluation point, evaluated there). The host calls it once per boundary (donating the state, so the replay
-buffers are updated in place), and between calls reads the evaluation points, checks for
+the next evaluation point, evaluated there). The host calls it once per boundary (donating the
+state, so the replay buffers are updated in place), and between calls reads the points, checks for
 non-finite parameters and polls `should_stop`. The program holds no host callback, so JAX's
 persistent compilation cache keeps it. Because each chunk is a pure function of the state, a run
 stopped at a chunk boundary and resumed from that state ends exactly where the uninterrupted run

@@ -169,7 +169,6 @@ def make_train_parts(config: SACConfig,
     source = keys if randomness is None else randomness
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
     batch_size = config.batch_size
-    num_iterations = prefill + config.num_evals * period
     sum_names = METRIC_NAMES + ("train_return",)
     watched = non_finite_fields(config)
     nan = jnp.float32(jnp.nan)
@@ -301,7 +300,7 @@ def make_train_parts(config: SACConfig,
                                lambda k: k, key)
             return key, draws
 
-        return jax.lax.scan(one, jax.random.split(key, 3)[2], jnp.arange(num_iterations))[1]
+        return jax.lax.scan(one, jax.random.split(key, 3)[2], jnp.arange(config.run_iterations))[1]
 
     def init(key: jax.Array, hyperparams: Optional[Dict[str, jax.Array]] = None) -> RunnerState:
         k_sac, k_env, k_run = jax.random.split(key, 3)
@@ -321,7 +320,7 @@ def make_train_parts(config: SACConfig,
             delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False),
             non_finite=jnp.int32(0), hyperparams=hyperparams)
 
-    return TrainParts(init, chunk, num_iterations, (prefill > 0) + config.num_evals,
+    return TrainParts(init, chunk, config.run_iterations, (prefill > 0) + config.num_evals,
                       record_draws)
 
 

@@ -145,8 +145,7 @@ def _resumed_run(args: TrainArgs):
         tracking.check_available()
     fits = _memory_line(args, config, info.runs)
     config, info, state, position = run_checkpoint.load_checkpoint(args.resume, args.resume_step)
-    from sac_jax.train import make_train_parts
-    if int(state.iteration) >= make_train_parts(config).num_iterations or (
+    if int(state.iteration) >= config.run_iterations or (
             config.stop_when_solved and all(state.stopped)):
         raise ValueError(f"--resume={args.resume}: this run already finished")
     return config, info, args.resume, (state, position), fits
