@@ -13,10 +13,10 @@ MuJoCo Playground (``playground/<Task>``, envs/playground.py) holds the maintain
 
 from __future__ import annotations
 
-import difflib
 import functools
 import warnings
 
+from envs import task_adapter
 from envs.task_adapter import TaskAdapter
 
 PREFIX = "brax/"
@@ -33,13 +33,7 @@ EPISODE_LENGTH = 1000
 
 def task_name(name: str) -> str:
     """The Brax environment of ``brax/<task>``; ValueError naming close names if unknown."""
-    task = name[len(PREFIX):]
-    if task not in TASKS:
-        close = difflib.get_close_matches(task, TASKS, n=3, cutoff=0.5)
-        hint = (f"did you mean {', '.join(PREFIX + c for c in close)}?" if close
-                else f"known: {', '.join(PREFIX + t for t in TASKS)}")
-        raise ValueError(f"unknown Brax environment {name!r}; {hint}")
-    return task
+    return task_adapter.task_name(name, PREFIX, TASKS, "Brax environment")
 
 
 @functools.lru_cache(maxsize=None)

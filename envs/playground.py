@@ -15,10 +15,10 @@ as the task's array.
 from __future__ import annotations
 
 import contextlib
-import difflib
 import functools
 import io
 
+from envs import task_adapter
 from envs.task_adapter import TaskAdapter
 
 PREFIX = "playground/"
@@ -39,13 +39,7 @@ SOLVED = {"CartpoleBalance": 900.0, "CartpoleSwingup": 800.0}
 
 def task_name(name: str) -> str:
     """The Playground task of ``playground/<Task>``; ValueError naming close names if unknown."""
-    task = name[len(PREFIX):]
-    if task not in TASKS:
-        close = difflib.get_close_matches(task, TASKS, n=3, cutoff=0.5)
-        hint = (f"did you mean {', '.join(PREFIX + c for c in close)}?" if close
-                else f"known: {', '.join(PREFIX + t for t in TASKS)}")
-        raise ValueError(f"unknown Playground task {name!r}; {hint}")
-    return task
+    return task_adapter.task_name(name, PREFIX, TASKS, "Playground task")
 
 
 @functools.lru_cache(maxsize=None)

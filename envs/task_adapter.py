@@ -18,11 +18,26 @@ envs/playground.py, Brax's in envs/brax_tasks.py): a task whose ``reset(key)`` a
 
 from __future__ import annotations
 
+import difflib
+from typing import Sequence
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from envs.types import Env, EnvState
+
+
+def task_name(name: str, prefix: str, tasks: Sequence[str], library: str) -> str:
+    """The task of ``<prefix><task>`` among `tasks`; ValueError ("unknown <library> task",
+    naming close names) if it is not one."""
+    task = name[len(prefix):]
+    if task not in tasks:
+        close = difflib.get_close_matches(task, tasks, n=3, cutoff=0.5)
+        hint = (f"did you mean {', '.join(prefix + c for c in close)}?" if close
+                else f"known: {', '.join(prefix + t for t in tasks)}")
+        raise ValueError(f"unknown {library} {name!r}; {hint}")
+    return task
 
 
 class TaskAdapter(Env):

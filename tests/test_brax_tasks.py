@@ -14,6 +14,7 @@ import sac_jax
 from envs import brax_tasks
 from sac_jax.run import run_training
 from sac_jax.train import agent_for
+from tests.task_steps import side_by_side
 
 NAME = "brax/inverted_pendulum"
 
@@ -38,19 +39,9 @@ def test_steps_are_the_tasks_own_and_done_terminates(env):
     task = brax_tasks._load("inverted_pendulum")
     actions = jnp.full((200, 1), 0.5)
 
-    def ours(state, action):
-        state = env.step(state, action)
-        return state, (state.obs, state.reward, state.terminated, state.truncated)
-
-    def theirs(state, action):
-        state = task.step(state, action)
-        return state, (state.obs, state.reward, state.done)
-
     key = jax.random.key(3)
-    _, (obs, reward, terminated, truncated) = jax.jit(
-        lambda: jax.lax.scan(ours, env.reset(key), actions))()
-    _, (task_obs, task_reward, done) = jax.jit(
-        lambda: jax.lax.scan(theirs, task.reset(key), actions))()
+    (obs, reward, terminated, truncated), (task_obs, task_reward, done) = side_by_side(
+        env, task, key, actions)
     np.testing.assert_array_equal(env.reset(key).obs, task.reset(key).obs)
     end = int(np.argmax(np.asarray(done) > 0))
     assert 0 < end < 200 and bool(terminated[end]) and not np.any(terminated[:end])

@@ -19,6 +19,7 @@ from sac_jax.run import run_training
 from sac_jax.saved_policy import SavedPolicy
 from sac_jax.train import agent_for
 from tests.subprocess_json import ROOT
+from tests.task_steps import side_by_side
 
 registry = pytest.importorskip("mujoco_playground").registry
 NAME = "playground/CartpoleBalance"
@@ -45,19 +46,9 @@ def test_steps_are_the_tasks_own_until_the_limit_truncates_with_the_final_observ
     actions = jax.random.uniform(jax.random.key(1), (env.max_episode_steps, 1), minval=-1,
                                  maxval=1)
 
-    def ours(state, action):
-        state = env.step(state, action)
-        return state, (state.obs, state.reward, state.terminated, state.truncated)
-
-    def theirs(state, action):
-        state = task.step(state, action)
-        return state, (state.obs, state.reward, state.done)
-
     key = jax.random.key(7)
-    _, (obs, reward, terminated, truncated) = jax.jit(
-        lambda: jax.lax.scan(ours, env.reset(key), actions))()
-    _, (task_obs, task_reward, done) = jax.jit(
-        lambda: jax.lax.scan(theirs, task.reset(key), actions))()
+    (obs, reward, terminated, truncated), (task_obs, task_reward, done) = side_by_side(
+        env, task, key, actions)
     np.testing.assert_array_equal(env.reset(key).obs, task.reset(key).obs)
     np.testing.assert_array_equal(obs, task_obs)
     np.testing.assert_array_equal(reward, task_reward)
