@@ -41,14 +41,18 @@ def program_directory() -> Optional[str]:
     return os.path.join(directory, "programs")
 
 
-MUJOCO_CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
-"""XLA options for compiling, on a CPU, the training program of an environment that simulates
-MuJoCo (`envs.Env.simulates_mujoco`): XLA's older LLVM emitters. 2 CPU cores, `fast` preset
-(InvertedPendulum-v5): the chunk compiles in 16.1 s instead of 21.1 s and trains its first 768
-iterations in 2.2-2.3 s instead of 1.8-1.9 s, so a first run reaches its solved policy about 4 s
-sooner (later runs read the compiled program from the cache). For environments without MuJoCo
-XLA's default is kept: rejax's Pendulum-v1 configuration compiles in 4.3 s instead of 2.9 s but
-trains 10,000 steps in 7.0 s instead of 8.8 s."""
+MUJOCO_CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False,
+                               "xla_backend_optimization_level": 1}
+"""XLA options for compiling, on a CPU, the training programs of an environment that simulates
+MuJoCo (`envs.Env.simulates_mujoco`). 2 CPU cores, `fast` preset (InvertedPendulum-v5):
+XLA's older LLVM emitters compile the chunk in 16.1 s instead of 21.1 s and train its first
+768 iterations in 2.2-2.3 s instead of 1.8-1.9 s, so a first run reaches its solved policy
+about 4 s sooner; LLVM's optimisation level 1 (of 3; 2 is XLA's default) then takes a cold
+`scripts/train.py` from 10.3-10.4 s to 8.8-9.0 s of compilation, and its training stays at
+2.5-2.6 s either way (level 0: 5.4 s to compile the chunk instead of 8.3 s, but a 3.8x slower
+run). Later runs read the compiled programs from the cache. For environments without MuJoCo
+XLA's default is kept: with it rejax's Pendulum-v1 configuration compiles in 4.3 s instead of
+2.9 s (older emitters), but trains 10,000 steps in 7.0 s instead of 8.8 s."""
 
 
 def compiler_options(env) -> dict:

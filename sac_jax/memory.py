@@ -37,7 +37,7 @@ import dataclasses
 import os
 import resource
 import sys
-from typing import Optional, Tuple
+from typing import Optional, Sequence, Tuple
 
 import jax
 
@@ -112,13 +112,14 @@ def need(config: SACConfig, seeds: int, platform: Optional[str] = None, temporar
                       temporaries=temporaries, process=process)
 
 
-def compiled_parts(program, device: Optional[jax.Device] = None) -> Tuple[int, int]:
-    """(temporaries, process) of `need` once `program` (the compiled chunk: a
-    `jax.stages.Compiled` or `sac_jax.program_cache.CachedProgram`) exists: XLA's temporary
-    bytes of it (0 where the backend does not say), and on a CPU device this process's resident
-    bytes now (/proc/self/statm; 0 elsewhere: a device's free memory excludes them already)."""
+def compiled_parts(programs: Sequence, device: Optional[jax.Device] = None) -> Tuple[int, int]:
+    """(temporaries, process) of `need` once `programs` (the compiled programs a chunk runs
+    one after the other: `jax.stages.Compiled`s or `sac_jax.program_cache.CachedProgram`s)
+    exist: XLA's temporary bytes of the largest of them (0 where the backend does not say), and
+    on a CPU device this process's resident bytes now (/proc/self/statm; 0 elsewhere: a
+    device's free memory excludes them already)."""
     try:
-        temporaries = int(program.memory_analysis().temp_size_in_bytes)
+        temporaries = max(int(p.memory_analysis().temp_size_in_bytes) for p in programs)
     except Exception:  # a backend without the analysis
         temporaries = 0
     if (device or jax.local_devices()[0]).platform != "cpu":

@@ -143,8 +143,8 @@ def _constrain(tree, axes, mesh: Mesh):
 
 def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     """`TrainParts` of one run of `config` spread over the mesh's single axis (see the module
-    docstring); `config` holds the global sizes. `init(key, hyperparams=None)` and `chunk(runner)` map the
-    one-device program over the D shares with `jax.vmap` (axis named like the mesh's, so the
+    docstring); `config` holds the global sizes. `init(key, hyperparams=None)`, `advance` and `evaluate` map
+    the one-device program over the D shares with `jax.vmap` (axis named like the mesh's, so the
     updates' `pmean` averages over it) and state the split of the shares over the devices as
     sharding constraints, which XLA's partitioner turns into per-device programs and an
     all-reduce per update (jit them). The runner's `sac` and counters are as in a one-device
@@ -164,13 +164,16 @@ def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
         runner = jax.vmap(share, out_axes=DATA_AXES, axis_name=axis)(jnp.arange(mesh.size))
         return _constrain(runner, DATA_AXES, mesh)
 
-    def chunk(runner: RunnerState, max_iterations: Optional[int] = None) -> RunnerState:
-        runner = jax.vmap(lambda r: parts.chunk(r, max_iterations), in_axes=(DATA_AXES,),
-                          out_axes=DATA_AXES, axis_name=axis)(_constrain(runner, DATA_AXES, mesh))
-        return _constrain(runner, DATA_AXES, mesh)
+    def shared(part: Callable) -> Callable:
+        def run(runner: RunnerState, *args) -> RunnerState:
+            runner = jax.vmap(lambda r: part(r, *args), in_axes=(DATA_AXES,),
+                              out_axes=DATA_AXES, axis_name=axis)(
+                _constrain(runner, DATA_AXES, mesh))
+            return _constrain(runner, DATA_AXES, mesh)
+        return run
 
-    return TrainParts(init=init, chunk=chunk, num_iterations=parts.num_iterations,
-                      num_chunks=parts.num_chunks)
+    return TrainParts(init=init, advance=shared(parts.advance), evaluate=shared(parts.evaluate),
+                      num_iterations=parts.num_iterations, num_chunks=parts.num_chunks)
 
 
 def data_parallel_metrics(outputs: Dict[str, jax.Array]) -> Dict[str, jax.Array]:

@@ -2,7 +2,7 @@
 
 JAX's persistent compilation cache keeps compiled executables, but finding one still needs the
 program traced in Python first, and tracing the MJX training chunk takes about 10 s on a CPU.
-`cached_compile` keeps the traced program as well: the lowered StableHLO of `fn` at the given
+`cached_lower` keeps the traced program as well: the lowered StableHLO of `fn` at the given
 argument shapes, as a function of the arguments' flat leaves, serialized by `jax.export`, in a
 file named by a hash of everything the trace depends on:
     what the caller names (e.g. the configuration and the number of seeds),
@@ -107,13 +107,14 @@ def _write(path: str, exported: export.Exported) -> None:
             os.remove(tmp)
 
 
-def cached_compile(fn: Callable, name: str, args: Sequence[Any], result: Any, directory: str,
-                   donate_first: bool = False, compiler_options: Optional[dict] = None
-                   ) -> Callable:
-    """`fn` compiled for arguments shaped like `args`, its traced program read from `directory`
+def cached_lower(fn: Callable, name: str, args: Sequence[Any], result: Any, directory: str,
+                 donate_first: bool = False) -> "CachedLowered":
+    """`fn` lowered for arguments shaped like `args`, its traced program read from `directory`
     if an earlier process left it there, else traced now and stored there. `result` has the
     tree structure of what `fn` returns (e.g. the first argument, for a step function);
-    `donate_first` donates the first argument's buffers. Returns a `CachedProgram`."""
+    `donate_first` donates the first argument's buffers. As `jax.jit(fn).lower`, this part
+    holds Python's lock and `compile` does not: a thread can compile one program while the
+    caller traces the next."""
     avals = jax.tree_util.tree_map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), list(args))
     leaves, treedef = jax.tree_util.tree_flatten(avals)
     result_tree = jax.tree_util.tree_structure(result)
@@ -135,13 +136,24 @@ def cached_compile(fn: Callable, name: str, args: Sequence[Any], result: Any, di
             warnings.warn(f"cached program {path}: not written ({error.strerror})",
                           stacklevel=2)
     donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
-    compiled = jax.jit(exported.call, donate_argnums=donated).lower(*leaves).compile(
-        compiler_options=compiler_options)
-    return CachedProgram(compiled, result_tree)
+    return CachedLowered(jax.jit(exported.call, donate_argnums=donated).lower(*leaves),
+                         result_tree)
+
+
+class CachedLowered:
+    """What `cached_lower` returns: `compile(compiler_options=None)` gives the `CachedProgram`
+    (the persistent compilation cache supplies the executable if it has it)."""
+
+    def __init__(self, lowered: jax.stages.Lowered, result_tree):
+        self._lowered, self._result_tree = lowered, result_tree
+
+    def compile(self, compiler_options: Optional[dict] = None) -> "CachedProgram":
+        return CachedProgram(self._lowered.compile(compiler_options=compiler_options),
+                             self._result_tree)
 
 
 class CachedProgram:
-    """What `cached_compile` returns: `program(*args)` calls the compiled program on the
+    """What `CachedLowered.compile` returns: `program(*args)` calls the compiled program on the
     caller's pytrees; `memory_analysis()` is XLA's, as of `jax.stages.Compiled`."""
 
     def __init__(self, compiled: jax.stages.Compiled, result_tree):

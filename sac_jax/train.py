@@ -19,10 +19,11 @@ count, which stays a real branch under `vmap`), which keeps compile time down.
 The parts carry `jax.named_scope`s (act, env_step, replay_add, replay_sample, sac_update,
 evaluate), by which a profile can sum its kernels (benchmarks/profile_chunk.py).
 
-The same loop comes in pieces from `make_train_parts`: `init(key)` and `chunk(runner)`, which
+The same loop comes in pieces from `make_train_parts`: `init(key)`, `advance(runner)`, which
 runs the iterations up to the next boundary (the end of the prefill, or the next evaluation
-point, which it then evaluates), so a run is `num_chunks` chunks. `train` scans `chunk`; a host
-loop can instead call a jitted `chunk` repeatedly to report progress between chunks, with no
+point), and `evaluate(runner)`, which evaluates the point reached; a chunk is `advance` then
+`evaluate`, and a run is `num_chunks` chunks. `train` scans chunks; a host loop can instead
+call jitted parts repeatedly to report progress between chunks, with no
 host callback in the program, so JAX's persistent compilation cache can keep it (`sac_jax.run`
 does this). The chunk's loop is a `lax.while_loop` up to that boundary, not a fixed-length
 scan: fixed chunks would have to divide both the prefill and the period (for rejax's Pendulum
@@ -89,18 +90,24 @@ class RunnerState(flax.struct.PyTreeNode):
 
 
 class TrainParts(NamedTuple):
-    """`init(key, hyperparams=None) -> RunnerState`; `chunk(runner, max_iterations=None) ->
+    """`init(key, hyperparams=None) -> RunnerState`; `advance(runner, max_iterations=None) ->
     runner`, the iterations up to the next boundary (the prefill's end, or the next evaluation
-    point, evaluated there), at most `max_iterations` (static) if given; `num_chunks` chunks
+    point), at most `max_iterations` (static) if given; `evaluate(runner) -> runner`, the
+    evaluation point the runner has reached (nothing elsewhere), which reads neither `env` nor
+    `buffer` (they may be None); `chunk` is `advance` then `evaluate`, and `num_chunks` chunks
     make the run's `num_iterations` iterations;
     `record_draws(key) -> Draws`, the stream of the run from `init(key)` drawn from keys (see
     `record_draws`; None for the data-parallel parts of `sac_jax.parallel`)."""
 
     init: Callable[..., RunnerState]
-    chunk: Callable[[RunnerState], RunnerState]
+    advance: Callable[..., RunnerState]
+    evaluate: Callable[[RunnerState], RunnerState]
     num_iterations: int
     num_chunks: int
     record_draws: Optional[Callable[[jax.Array], Draws]] = None
+
+    def chunk(self, runner: RunnerState, max_iterations: Optional[int] = None) -> RunnerState:
+        return self.evaluate(self.advance(runner, max_iterations))
 
 
 def _shared_counter_axes() -> RunnerState:
@@ -278,13 +285,16 @@ def make_train_parts(config: SACConfig,
         periods_done = (iterations_done - prefill) // period
         return jnp.where(iterations_done < prefill, prefill, prefill + (periods_done + 1) * period)
 
-    def chunk(runner: RunnerState, max_iterations: Optional[int] = None) -> RunnerState:
+    def advance(runner: RunnerState, max_iterations: Optional[int] = None) -> RunnerState:
         run_agent = agent.with_hyperparams(runner.hyperparams)
         end = next_boundary(runner.iteration)  # a shared counter: one trip count for all seeds
         if max_iterations is not None:
             end = jnp.minimum(end, runner.iteration + max_iterations)
-        runner = jax.lax.while_loop(lambda r: r.iteration < end,
-                                    lambda r: iteration(run_agent, r, None)[0], runner)
+        return jax.lax.while_loop(lambda r: r.iteration < end,
+                                  lambda r: iteration(run_agent, r, None)[0], runner)
+
+    def evaluate(runner: RunnerState) -> RunnerState:
+        run_agent = agent.with_hyperparams(runner.hyperparams)
         return jax.lax.cond(evaluates_after(runner.iteration),
                             lambda r: evaluate_period(run_agent, r), lambda r: r, runner)
 
@@ -320,8 +330,8 @@ def make_train_parts(config: SACConfig,
             delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False),
             non_finite=jnp.int32(0), hyperparams=hyperparams)
 
-    return TrainParts(init, chunk, config.run_iterations, (prefill > 0) + config.num_evals,
-                      record_draws)
+    return TrainParts(init, advance, evaluate, config.run_iterations,
+                      (prefill > 0) + config.num_evals, record_draws)
 
 
 def record_draws(config: SACConfig, key: jax.Array) -> Draws:

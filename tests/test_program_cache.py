@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sac_jax.program_cache import cached_compile, program_file
+from sac_jax.program_cache import cached_lower, program_file
 from sac_jax.replay_buffer import Transition
 
 
@@ -33,9 +33,9 @@ def test_stored_once_then_read_without_tracing(tmp_path):
     calls = []
     step = _step_counting_traces(calls)
     state, scale = _state(), jnp.float32(2.0)
-    first = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    first = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     assert len(calls) == 1 and len(os.listdir(tmp_path)) == 1
-    again = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    again = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     assert len(calls) == 1  # read back: not traced
     expected = jax.jit(step)(state, scale)
     for program in (first, again):
@@ -60,18 +60,18 @@ def test_a_damaged_file_is_traced_again_and_replaced(tmp_path):
     calls = []
     step = _step_counting_traces(calls)
     state, scale = _state(), jnp.float32(2.0)
-    cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     (path,) = [tmp_path / name for name in os.listdir(tmp_path)]
     path.write_bytes(b"not a program")
-    program = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    program = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     assert len(calls) == 2 and path.read_bytes() != b"not a program"
     np.testing.assert_array_equal(program(state, scale)["x"], jax.jit(step)(state, scale)["x"])
 
 
 def test_the_first_argument_is_donated_when_asked(tmp_path):
     state, scale = _state(), jnp.float32(2.0)
-    program = cached_compile(_step_counting_traces([]), "step", [state, scale], state,
-                             str(tmp_path), donate_first=True)
+    program = cached_lower(_step_counting_traces([]), "step", [state, scale], state,
+                           str(tmp_path), donate_first=True).compile()
     program(state, scale)
     assert state["x"].is_deleted() and not scale.is_deleted()
 
@@ -79,7 +79,7 @@ def test_the_first_argument_is_donated_when_asked(tmp_path):
 def test_a_result_of_another_structure_is_refused(tmp_path):
     state = _state()
     with pytest.raises(ValueError, match="returns"):
-        cached_compile(lambda s: s["x"], "x", [state], state, str(tmp_path))
+        cached_lower(lambda s: s["x"], "x", [state], state, str(tmp_path)).compile()
 
 
 def test_a_file_with_flipped_bytes_is_traced_again_with_one_warning(tmp_path):
@@ -88,13 +88,13 @@ def test_a_file_with_flipped_bytes_is_traced_again_with_one_warning(tmp_path):
     calls = []
     step = _step_counting_traces(calls)
     state, scale = _state(), jnp.float32(2.0)
-    cached_compile(step, "step", [state, scale], state, str(tmp_path))
+    cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     (path,) = [tmp_path / name for name in os.listdir(tmp_path)]
     data = bytearray(path.read_bytes())
     middle = len(data) // 2
     data[middle:middle + 8] = bytes(b ^ 0xFF for b in data[middle:middle + 8])
     path.write_bytes(bytes(data))
     with pytest.warns(UserWarning, match="damaged .checksum mismatch.; tracing it again"):
-        program = cached_compile(step, "step", [state, scale], state, str(tmp_path))
+        program = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     assert len(calls) == 2 and path.read_bytes() != bytes(data)
     np.testing.assert_array_equal(program(state, scale)["x"], jax.jit(step)(state, scale)["x"])
