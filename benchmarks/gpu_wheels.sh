@@ -9,6 +9,8 @@
 #          over the device tool's 64 MiB carry, and Playground's MJX tasks run without it.
 #        bash benchmarks/gpu_wheels.sh rejax      # rejax's peer (rejax mode): ours without MuJoCo
 #          (Pendulum-v1 needs none), and rejax 0.1.3 with gymnax 0.0.9 (the image has the rest)
+#        bash benchmarks/gpu_wheels.sh all        # the playground set with rejax's and gymnasium:
+#          every mode but the brax and torch ones in one carry (41 MB), for one device session
 set -euo pipefail
 cd "$(dirname "$0")/.."
 names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
@@ -19,6 +21,10 @@ case "${1:-}" in
   playground)  # without the packages the image has (tensorstore, tensorboard, ...), to fit
     names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
 gast tyro docstring-parser typeguard orbax-checkpoint brax jaxopt ml_collections playground" ;;
+  all)
+    names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
+gast tyro docstring-parser typeguard orbax-checkpoint brax jaxopt ml_collections playground
+gymnasium farama-notifications glfw tensorboard rejax==0.1.3 gymnax==0.0.9" ;;
   rejax)
     names="flax optax distrax tfp-nightly dm-tree decorator gast tyro docstring-parser typeguard
 orbax-checkpoint gymnasium farama-notifications rejax==0.1.3 gymnax==0.0.9" ;;

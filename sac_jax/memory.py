@@ -21,7 +21,8 @@ programs: about 0.9 GB for the MJX tasks, measured, not modelled). So
 
     peak = process + replay + state + checkpoint copy + temporaries
     checkpoint copy = state + replay * stored_slots / buffer_size
-                    = 0                                   (where the copy does not fit)
+                    = 0        (where the copy does not fit; on an accelerator, where it is
+                                at most IN_LINE_COPY_BYTES: fetched to the host in line)
 
 Measured on the CPU (`fast`, 1 seed, peak RSS at 4M and 8M replay slots): 44.5 bytes per
 44-byte slot (benchmarks/memory.py, BENCHMARKS.md, which also holds the estimate against the
@@ -85,6 +86,15 @@ def stored_slots(filled: int, capacity: int, platform: str) -> int:
     return min(capacity, 1 << (filled - 1).bit_length())
 
 
+IN_LINE_COPY_BYTES = 4 << 20
+"""On an accelerator, a checkpoint's copy of at most this many bytes is not made on the device:
+the state is fetched to host memory in line (`run_checkpoint.CheckpointWriter`), which for a
+few megabytes takes about a millisecond, and the device holds no copy beside the next chunk
+(H200, 1 seed of `fast`: the device copy made the model's estimate 1.31x the measured peak,
+as the copy was fetched and freed before the next chunk's temporaries were allocated, or
+not, depending on the host's timing)."""
+
+
 def copy_fits(copy: int, free: Optional[int]) -> bool:
     """Whether a checkpoint's copy of `copy` bytes is made where `free` bytes are free (None:
     unknown): room for it and as much again (`run_checkpoint.CheckpointWriter`); else the
@@ -97,15 +107,18 @@ def need(config: SACConfig, seeds: int, platform: Optional[str] = None, temporar
     """The memory a run of `seeds` seeds of `config` needs on `platform` (default: JAX's
     default backend), from `jax.eval_shape` of its initial state, with the `temporaries` and
     `process` bytes given (`compiled_parts`); with the bytes `available` before the run, a
-    checkpoint's copy counts only where it `copy_fits` beside the run's data."""
+    checkpoint's copy counts only where it `copy_fits` beside the run's data, and on an
+    accelerator only where it exceeds `IN_LINE_COPY_BYTES`."""
     from sac_jax.run_dir import state_template
 
     state = state_template(config, seeds)
     replay = tree_bytes(state.buffer.data)
     rest = tree_bytes(state) - replay
-    slots = stored_slots(min(config.run_steps, config.buffer_size), config.buffer_size,
-                         platform or jax.default_backend())
+    platform = platform or jax.default_backend()
+    slots = stored_slots(min(config.run_steps, config.buffer_size), config.buffer_size, platform)
     copy = rest + replay * slots // config.buffer_size
+    if platform != "cpu" and copy <= IN_LINE_COPY_BYTES:
+        copy = 0  # fetched to the host in line
     if available is not None and not copy_fits(copy, available - replay - rest - temporaries):
         copy = 0
     return MemoryNeed(seeds=seeds, replay=replay, state=rest, checkpoint=copy,

@@ -158,7 +158,8 @@ class CheckpointWriter(BackgroundWrites):
     saves come faster than writes, the thread writes the newest state saved and skips the older
     ones waiting. A device without room for the copy (`_room_for_copy`) gets none: `save` then
     waits for the writes under way, whose copies it frees, and fetches the state to host memory
-    in line. (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run;
+    in line; so does a state whose copy is at most `memory.IN_LINE_COPY_BYTES`, without waiting
+    (a millisecond's fetch, where a device copy would be held beside the next chunk). (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run;
     copying to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.) A state on
     the CPU is always fetched in line: there the fetch is a view, and the copy the checkpoint
     keeps holds the filled replay slots only, where a device copy would hold every slot; where
@@ -195,15 +196,17 @@ class CheckpointWriter(BackgroundWrites):
             return
         self._last_start = time.perf_counter()
         position = position.copy()
-        if not _on_host(runner) and _room_for_copy(runner):
+        on_host = _on_host(runner)
+        small = not on_host and _copy_bytes(runner) <= memory.IN_LINE_COPY_BYTES
+        if not on_host and not small and _room_for_copy(runner):
             state = _device_copy(runner)
             write = lambda: save_checkpoint(self._run_dir, state, position)
-        else:  # one host copy at a time: none being written, the one waiting dropped first
-            self._collect(wait=True)
-            with self._lock:
-                self._newest = None
-            if _on_host(runner) and not memory.copy_fits(_copy_bytes(runner),
-                                                          memory.available()[0]):
+        else:
+            if not small:  # one host copy at a time: none being written, the one waiting dropped
+                self._collect(wait=True)
+                with self._lock:
+                    self._newest = None
+            if on_host and not memory.copy_fits(_copy_bytes(runner), memory.available()[0]):
                 _write(self._run_dir, *_stored(runner, copy=False), position)  # in line
                 return
             leaves, filled = _stored(runner)

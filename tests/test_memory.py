@@ -42,6 +42,10 @@ def test_the_replay_need_is_the_slots_data_and_the_rest_is_the_state():
     assert need.peak == total + need.checkpoint and need.per_seed == need.peak // 3
     on_cpu = memory.need(config, seeds=3, platform="cpu")
     assert on_cpu.checkpoint == on_cpu.state + 3 * config.run_steps * 44
+    # a copy of at most memory.IN_LINE_COPY_BYTES is fetched to the host in line: none on a GPU
+    small = config.replace(buffer_size=10_000)
+    assert memory.need(small, seeds=1, platform="gpu").checkpoint == 0
+    assert memory.need(small, seeds=1, platform="cpu").checkpoint > 0
 
 
 def test_a_run_that_cannot_fit_is_refused_in_one_line_and_writes_nothing(

@@ -97,14 +97,22 @@ def _same_checkpoint(a, b, step):
     _assert_same(tree_a, tree_b)
 
 
-@pytest.mark.parametrize("room", [True, False], ids=["device copy", "no room: fetched in line"])
-def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monkeypatch, room):
+@pytest.mark.parametrize("room, small", [(True, False), (False, False), (True, True)],
+                         ids=["device copy", "no room: fetched in line", "small: fetched in line"])
+def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monkeypatch, room,
+                                                            small):
     """The device buffers are deleted (as the next chunk's donation does) and the position
     changed right after `save`: the checkpoint still holds the state and position of the call,
     array for array what `save_checkpoint` writes, whether the device had room for a copy of
-    the state or not (the paths of an accelerator, forced here)."""
+    the state or not, or the copy was small enough to fetch in line (the paths of an
+    accelerator, forced here); a device copy is made on the first path only."""
     monkeypatch.setattr(run_checkpoint, "_on_host", lambda tree: False)
     monkeypatch.setattr(run_checkpoint, "_room_for_copy", lambda tree: room)
+    monkeypatch.setattr(memory, "IN_LINE_COPY_BYTES", 1 << 40 if small else 0)
+    copies = []
+    device_copy = run_checkpoint._device_copy
+    monkeypatch.setattr(run_checkpoint, "_device_copy",
+                        lambda tree: copies.append(1) or device_copy(tree))
     _, saved = run
     run_checkpoint.save_checkpoint(str(tmp_path / "direct"), saved, Position(chunks_done=3, env_steps=9))
     runner = jax.tree_util.tree_map(lambda x: jax.device_put(x).copy(), saved)  # its own buffers
@@ -116,6 +124,7 @@ def test_background_writer_stores_the_state_as_it_was_asked(run, tmp_path, monke
     position.chunks_done = 4
     writer.close()
     _same_checkpoint(str(tmp_path / "writer"), str(tmp_path / "direct"), 9)
+    assert len(copies) == (room and not small)
 
 
 def test_a_device_copy_holds_the_filled_slots_rounded_up_to_a_power_of_two(run):
@@ -140,6 +149,7 @@ def test_background_writer_returns_at_once_and_writes_the_newest_state_waiting(
     more saves return and queue; once it is let go, only the newest of them is written, and its
     state is the one that was saved."""
     monkeypatch.setattr(run_checkpoint, "_on_host", lambda tree: False)
+    monkeypatch.setattr(memory, "IN_LINE_COPY_BYTES", 0)
     written, started, release = [], threading.Event(), threading.Event()
 
     def slow_save(directory, runner, position):
