@@ -10,7 +10,7 @@
 #        bash benchmarks/gpu_wheels.sh rejax      # rejax's peer (rejax mode): ours without MuJoCo
 #          (Pendulum-v1 needs none), and rejax 0.1.3 with gymnax 0.0.9 (the image has the rest)
 #        bash benchmarks/gpu_wheels.sh all        # the playground set with rejax's and gymnasium:
-#          every mode but the brax and torch ones in one carry (41 MB), for one device session
+#          the modes of one device session in one carry (41 MB)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
