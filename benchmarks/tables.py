@@ -684,6 +684,18 @@ def _target_evaluation_share():
                     met if len({name for name, _ in rows}) == 2 or not met else None)]
 
 
+def _target_cold_compile():
+    names = [n for n in ("delivered-cold", _gpu("delivered-cold")) if n and _find(n)
+             and _load(n)["result"].get("cold")]
+    if not names:
+        return None
+    seconds = {n: _load(n)["result"]["cold"]["compile_s"] for n in names}
+    met = all(x <= 10.0 for x in seconds.values())
+    return names, [("; ".join(f"{'GPU' if '-h' in n else 'CPU'} {x:.1f} s"
+                              for n, x in seconds.items()),
+                    met if len(names) == 2 else (None if met else False))]
+
+
 def _mean(values) -> float:
     return sum(values) / len(values)
 
@@ -817,6 +829,8 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("End to end through `scripts/train.py` (warm cache): ≥ 2x rejax, each from its process's "
      "start to its trained result, 1 and 16 seeds on 2 CPU cores, 1 and 256 on one GPU", "rejax",
      lambda: _target_rejax("rejax_over_script_to_result_warm", 2.0, True), 0),
+    ("`fast` preset cold compile (`scripts/train.py`, empty cache) ≤ 10 s, on 2 CPU cores and "
+     "on one H100", "Delivered policy", _target_cold_compile, 0),
     ("Playground adapter overhead ≤ 5 % of the raw task step (pendulum family, CPU and GPU)",
      "MuJoCo Playground", _target_playground_adapter, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",

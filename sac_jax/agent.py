@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from sac_jax import observation_norm
 from sac_jax.config import SACConfig
 from sac_jax.hyperparams import Hyperparams, of_config
 from sac_jax.networks import Actor, CriticEnsemble, ValueNetwork
@@ -92,15 +93,19 @@ class Agent:
 
     # ------------------------------------------------------------------ policy
     def sample_action(self, actor_params, obs: jax.Array, noise: jax.Array):
-        """a ~ pi(.|s) reparameterised by noise eps (B, A); returns (a (B, A), log pi (B,))."""
-        mean, log_std = self.actor.apply(actor_params, obs)
+        """a ~ pi(.|s) reparameterised by noise eps (B, A); returns (a (B, A), log pi (B,)).
+        Observations are raw: normalised here with the actor's statistics, if it has them
+        (`sac_jax.observation_norm`)."""
+        mean, log_std = self.actor.apply(actor_params,
+                                         observation_norm.normalize(actor_params, obs))
         return squashed_gaussian_sample(mean, log_std, noise, self.action_scale,
                                         self.action_bias, self.config.log_prob_correction)
 
     def act(self, actor_params, obs: jax.Array, key: Optional[jax.Array] = None) -> jax.Array:
         """An action in environment units for obs (..., O): sampled if `key` is given, else the
-        deterministic scale * tanh(mu(s)) + bias."""
-        mean, log_std = self.actor.apply(actor_params, obs)
+        deterministic scale * tanh(mu(s)) + bias (raw observations, as `sample_action`)."""
+        mean, log_std = self.actor.apply(actor_params,
+                                         observation_norm.normalize(actor_params, obs))
         if key is None:
             return deterministic_action(mean, self.action_scale, self.action_bias)
         noise = jax.random.normal(key, mean.shape, mean.dtype)
@@ -109,11 +114,16 @@ class Agent:
 
     # ------------------------------------------------------------------ state
     def init(self, key: jax.Array) -> SACState:
-        """Fresh parameters (targets as copies of the online networks) and optimiser states."""
+        """Fresh parameters (targets as copies of the online networks) and optimiser states;
+        with `normalize_observations`, the actor's variables also hold the observation
+        statistics (`sac_jax.observation_norm`), before any observation."""
         k_actor, k_critic, k_value = jax.random.split(key, 3)
         obs = jnp.zeros((1, self.observation_size), jnp.float32)
         action = jnp.zeros((1, self.action_size), jnp.float32)
         actor_params = self.actor.init(k_actor, obs)
+        if self.config.normalize_observations:
+            actor_params = {**actor_params,
+                            observation_norm.COLLECTION: observation_norm.init(obs.shape[-1])}
         critic_params = self.critic.init(k_critic, obs, action)
         v1 = self.config.variant == "v1"
         value_params = self.value.init(k_value, obs) if v1 else None

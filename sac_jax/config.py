@@ -130,6 +130,10 @@ class SACConfig:
     critic_layer_norm: bool = False
     """Follow each hidden ReLU of the critics by a LayerNorm (Brax's `q_network_layer_norm`,
     which MuJoCo Playground's SAC uses)."""
+    normalize_observations: bool = False
+    """Feed every network (s - mean) / std, with the running statistics of all observations
+    so far, kept in the actor's variables (`sac_jax.observation_norm`; Brax's
+    `normalize_observations`, which MuJoCo Playground's SAC uses)."""
     init: Init = "flax"
     """"flax": lecun-normal kernels, zero bias; "torch": PyTorch's nn.Linear default
     U(+-1/sqrt(fan_in)) for kernel and bias; "xavier": Xavier-uniform kernels, zero bias."""
@@ -198,7 +202,7 @@ class SACConfig:
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
                 fail(field, "must be a positive integer")
         for field in ("stop_when_solved", "learn_alpha", "critic_layer_norm",
-                      "separate_log_std_network"):
+                      "normalize_observations", "separate_log_std_network"):
             if not isinstance(getattr(self, field), bool):
                 fail(field, "must be True or False")
         if isinstance(self.learning_starts, bool) or not isinstance(self.learning_starts, int):

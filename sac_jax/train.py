@@ -3,7 +3,9 @@
 One `lax.scan` runs all iterations; iteration i:
     act       uniform random actions while i < learning_starts / num_envs (prefill), then
               a ~ pi(.|s) on all num_envs environments
-    step      `envs.VectorEnv.step` (auto-reset), add the num_envs transitions to the buffer
+    step      `envs.VectorEnv.step` (auto-reset), add the num_envs transitions to the buffer;
+              with `normalize_observations`, add the observations acted on to the running
+              statistics (`sac_jax.observation_norm`)
     learn     after the prefill: updates_per_step `sac_update`s on freshly sampled batches
     evaluate  after every eval_every training steps: deterministic returns on separate
               environment instances, the selection of the delivered actor (`sac_jax.selection`:
@@ -49,7 +51,7 @@ import jax.numpy as jnp
 
 import envs
 from sac_jax import replay_buffer as rb
-from sac_jax import selection
+from sac_jax import observation_norm, selection
 from sac_jax.agent import Agent, SACState, make_agent
 from sac_jax.randomness import Draws, FromKeys, Replay, check
 from sac_jax.config import SACConfig
@@ -262,9 +264,13 @@ def make_train_parts(config: SACConfig,
             buffer = rb.add(runner.buffer, Transition(
                 obs=obs, action=action, reward=step.reward, next_obs=step.final_obs,
                 terminated=step.terminated.astype(jnp.float32)))
+        sac = runner.sac
+        if config.normalize_observations:  # the statistics of every observation acted on
+            sac = sac.replace(actor_params=observation_norm.observe(
+                sac.actor_params, obs, config.data_parallel_axis))
         sac, code, metrics = jax.lax.cond(
             learning, lambda sac: learn(agent, sac, buffer, k_learn, runner.iteration),
-            lambda sac: (sac, jnp.int32(0), {name: nan for name in METRIC_NAMES}), runner.sac)
+            lambda sac: (sac, jnp.int32(0), {name: nan for name in METRIC_NAMES}), sac)
         if config.stop_when_solved:  # a stopped seed keeps its learner; the update count is shared
             keep = lambda old, new: jnp.where(runner.stopped, old, new)
             sac = jax.tree_util.tree_map(keep, runner.sac, sac).replace(step=sac.step)

@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import optax
 
 from sac_jax import losses
+from sac_jax.observation_norm import normalize
 from sac_jax.agent import Agent, SACState
 from sac_jax.replay_buffer import Transition
 
@@ -69,18 +70,19 @@ def critic_objective(agent: Agent, state: SACState, batch: Transition,
     eps (B, A). v1 target: c r + gamma (1 - d) V-bar(s') (the noise is unused).
     """
     cfg, hp = agent.config, agent.hyperparams
+    obs, next_obs = (normalize(state.actor_params, o) for o in (batch.obs, batch.next_obs))
     if cfg.variant == "v2":
         noise = as_noise(key_or_noise, batch.action.shape)
         next_action, next_log_prob = agent.sample_action(state.actor_params, batch.next_obs, noise)
-        q_next = agent.critic.apply(state.critic_target_params, batch.next_obs, next_action)
+        q_next = agent.critic.apply(state.critic_target_params, next_obs, next_action)
         next_value = jnp.min(q_next, axis=0) - state.alpha * next_log_prob
     else:
-        next_value = agent.value.apply(state.value_target_params, batch.next_obs)
+        next_value = agent.value.apply(state.value_target_params, next_obs)
     target = jax.lax.stop_gradient(losses.soft_q_target(
         batch.reward, batch.terminated, next_value, hp.gamma, hp.reward_scale))
 
     def objective(params):
-        q = agent.critic.apply(params, batch.obs, batch.action)
+        q = agent.critic.apply(params, obs, batch.action)
         return losses.critic_loss(q, target, hp.loss_coef), q
 
     return objective
@@ -102,9 +104,11 @@ def actor_objective(agent: Agent, state: SACState, obs: jax.Array,
     min_i Q_i(s, a~)), a~ = f_params(eps; s), obs (B, O), eps (B, A)."""
     noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
 
+    normalized = normalize(state.actor_params, obs)
+
     def objective(params):
         action, log_prob = agent.sample_action(params, obs, noise)
-        q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
+        q_min = jnp.min(agent.critic.apply(state.critic_params, normalized, action), axis=0)
         return losses.actor_loss(log_prob, q_min, state.alpha), log_prob
 
     return objective
@@ -142,9 +146,10 @@ def value_objective(agent: Agent, state: SACState, obs: jax.Array,
     alpha log pi(a~|s) with a~ = f(eps; s), obs (B, O), eps (B, A)."""
     noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
     action, log_prob = agent.sample_action(state.actor_params, obs, noise)
-    q_min = jnp.min(agent.critic.apply(state.critic_params, obs, action), axis=0)
+    normalized = normalize(state.actor_params, obs)
+    q_min = jnp.min(agent.critic.apply(state.critic_params, normalized, action), axis=0)
     target = jax.lax.stop_gradient(q_min - state.alpha * log_prob)
-    return lambda params: losses.value_loss(agent.value.apply(params, obs), target,
+    return lambda params: losses.value_loss(agent.value.apply(params, normalized), target,
                                             agent.hyperparams.loss_coef)
 
 
