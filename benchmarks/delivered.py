@@ -34,13 +34,14 @@ from benchmarks.provenance import machine_kind, provenance, write_result
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def train(out: str, *flags: str, cache_dir: str = None) -> dict:
-    """Runs the README's command into `out`; its summary.json with the process's wall time."""
+def train(out: str, *flags: str, cache_dir: str = None, env: dict = None) -> dict:
+    """Runs the README's command into `out` (in `env`, default this process's environment); its
+    summary.json with the process's wall time."""
     argv = [sys.executable, os.path.join(ROOT, "scripts", "train.py"), "--out", out, *flags]
     if cache_dir:
         argv += ["--cache-dir", cache_dir]
     start = time.perf_counter()
-    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
+    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - start
     if proc.returncode:
         raise SystemExit(f"{' '.join(argv)} failed:\n{proc.stderr[-2000:]}")

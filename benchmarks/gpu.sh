@@ -42,11 +42,16 @@
 #          (Brax's SAC with Playground's config against ours; `gpu_wheels.sh playground`)
 #        bash benchmarks/gpu.sh playground_adapter [playground_adapter.py flags] (the same wheels)
 #        bash benchmarks/gpu.sh search [preset_search.py flags] (the same wheels)
+#        bash benchmarks/gpu.sh compile [compile_options.py flags: --variant XLA_FLAGS ...] (a
+#          cold and a warm first run per variant; the delivered mode's wheels)
 #        bash benchmarks/gpu.sh memory [benchmarks/memory.py flags, e.g. --largest 1000000] (the
 #          delivered mode's wheels; memory-KIND.json)
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
+# Bytecode now, as an installed package has it: the image sets PYTHONDONTWRITEBYTECODE, and without
+# this every process would compile these packages' sources again (1.7 s of each startup).
+python3 -m compileall -q -j 0 /tmp/site sac_jax envs scripts benchmarks >/dev/null 2>&1
 export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
 export SAC_JAX_BENCHMARK_VIA="bash benchmarks/gpu.sh $*"  # recorded beside each file's command
 SAC_JAX_RESULTS_DIR=$(mktemp -d /tmp/results.XXXXXX); export SAC_JAX_RESULTS_DIR
@@ -110,6 +115,9 @@ gymnasium.make('InvertedPendulum-v5').close()" || exit 1
   progress)
     python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
     run python3 -m benchmarks.progress_overhead "$@" ;;
+  compile)
+    python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
+    run python3 -m benchmarks.compile_options "$@" ;;
   memory)
     python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
     run env XLA_PYTHON_CLIENT_PREALLOCATE=false python3 -m benchmarks.memory "$@" ;;

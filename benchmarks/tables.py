@@ -696,6 +696,25 @@ def _target_cold_compile():
                     met if len(names) == 2 else (None if met else False))]
 
 
+def compile_options() -> str:
+    """A first run's compile seconds and a warm run's training seconds per set of XLA flags."""
+    name = _gpu("compile_options")
+    if name is None:
+        return _pending("bash benchmarks/gpu.sh compile --variant= --variant=FLAGS ...")
+    data, runs = _load(name), {}
+    for r in data["result"]["variants"]:
+        if "error" not in r:
+            runs.setdefault(r["xla_flags"], []).append(r)
+    median = lambda values: sorted(values)[len(values) // 2]
+    rows = [[f"`{flags}`" if flags else "XLA's defaults", len(rs),
+             f"{_span([r['cold']['compile_s'] for r in rs], '{:.1f}')} (median "
+             f"{median([r['cold']['compile_s'] for r in rs]):.1f})",
+             f"{median([r['warm']['solved_wall_s'] for r in rs]):.2f}"]
+            for flags, rs in runs.items()]
+    return _from(name, data) + _table(["XLA flags", "runs", "cold compile s",
+                                       "median training to solved s (warm)"], rows)
+
+
 def _mean(values) -> float:
     return sum(values) / len(values)
 
@@ -865,7 +884,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     "updates-cpu": updates_cpu, "seed-scaling": seed_scaling, "profile": profile,
     "brax": brax, "torch": torch_loop, "progress": progress, "parallel": parallel,
     "memory": memory, "sweep": sweep, "playground": playground,
-    "playground-peer": playground_peer, "rejax": rejax}
+    "playground-peer": playground_peer, "rejax": rejax, "compile-options": compile_options}
 
 
 def render(text: str) -> str:
