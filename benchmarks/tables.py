@@ -598,9 +598,13 @@ def playground_peer() -> str:
     def rows(name, data):
         r = data["result"]
         one, many = r["ours"]["1"], r["ours"][str(max(int(n) for n in r["ours"]))]
-        reached = lambda run: ("not reached" if run["to_peer_final"] is None else
-                               f"{run['to_peer_final']['seconds']:.1f} s, "
-                               f"{run['to_peer_final']['env_steps']:,} steps")
+        def reached(run):
+            if run["to_peer_final"] is not None:
+                return (f"{run['to_peer_final']['seconds']:.1f} s, "
+                        f"{run['to_peer_final']['env_steps']:,} steps")
+            step, _, stopped, _ = run["points"][-1]  # the budget's end
+            return f"{round(stopped * run['seeds'])}/{run['seeds']} reached it in {step:,} steps"
+
         peer_steps = r["peer_arguments"]["num_timesteps"]
         return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}",
                  f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps", reached(one),
