@@ -222,9 +222,6 @@ class Chunk:
         return self.evaluate(self.evaluated(runner)).replace(env=runner.env,
                                                              buffer=runner.buffer)
 
-    def programs(self) -> tuple:
-        return self.advance, self.evaluate
-
 
 EVALUATED_AXES = Chunk.evaluated(SEED_AXES)
 """`SEED_AXES` of what `Chunk.evaluated` keeps of a runner."""
@@ -279,7 +276,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         memory.check(config, seeds)
     t0 = time.perf_counter()
     parts, init, chunk, finite, sharding = compiled_program(config, seeds, tuple(values))
-    temporaries, process = memory.compiled_parts(chunk.programs())  # before the state exists
+    temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate))  # before the state exists
     model = memory.need(config, seeds, temporaries=temporaries, process=process)
     if resume is None:
         keys = jax.random.split(jax.random.key(seed), seed_keys)
