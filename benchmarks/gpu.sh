@@ -49,6 +49,10 @@
 set -uo pipefail
 python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
   --target /tmp/site .whl/*.whl >/dev/null 2>&1 || { echo "wheel install failed"; exit 1; }
+if [ -f .warp/rest.whl ]; then  # warp-lang in parts (benchmarks/gpu_wheels.sh warp)
+  python3 -m zipfile -e .warp/rest.whl /tmp/site && cat .warp/so.a .warp/so.b | xz -dc \
+    > /tmp/site/warp/bin/warp.so || { echo "warp did not go together"; exit 1; }
+fi
 # Bytecode now, as an installed package has it: the image sets PYTHONDONTWRITEBYTECODE, and without
 # this every process would compile these packages' sources again (1.7 s of each startup).
 python3 -m compileall -q -j 0 /tmp/site sac_jax envs scripts benchmarks >/dev/null 2>&1

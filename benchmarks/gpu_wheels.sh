@@ -11,8 +11,28 @@
 #          (Pendulum-v1 needs none), and rejax 0.1.3 with gymnax 0.0.9 (the image has the rest)
 #        bash benchmarks/gpu_wheels.sh all        # the playground set with rejax's and gymnasium:
 #          the modes of one device session in one carry (41 MB)
+#        bash benchmarks/gpu_wheels.sh warp       # warp-lang (149 MB) into .warp/ in three parts
+#          under the carry's 64 MiB: its warp.so xz-compressed and split (.warp/so.a, .warp/so.b),
+#          and the rest of the wheel (.warp/rest.whl). Carry them one per call to one warm machine
+#          (a carried path stays there while the machine is held), the last call with .warp/rest.whl;
+#          benchmarks/gpu.sh then puts warp together beside the other wheels (.whl/ must be there)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+if [ "${1:-}" = warp ]; then
+  version=$(python -c "import importlib.metadata as m; print(m.version('warp-lang'))")
+  rm -rf .warp && mkdir -p .warp/dl
+  python -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
+    --implementation cp --platform manylinux_2_28_x86_64 -d .warp/dl "warp-lang==$version"
+  wheel=$(ls .warp/dl/*.whl)
+  (cd .warp && unzip -q "dl/$(basename "$wheel")" warp/bin/warp.so)
+  xz -T0 -6 -c .warp/warp/bin/warp.so > .warp/so.xz
+  split -n 2 .warp/so.xz .warp/so. && mv .warp/so.aa .warp/so.a && mv .warp/so.ab .warp/so.b
+  rm .warp/so.xz
+  cp "$wheel" .warp/rest.whl && zip -q -d .warp/rest.whl warp/bin/warp.so
+  rm -rf .warp/dl .warp/warp
+  du -sh .warp/*
+  exit 0
+fi
 names="mujoco mujoco-core mujoco-mjx trimesh flax optax distrax tfp-nightly dm-tree decorator
 gast tyro docstring-parser typeguard gymnasium farama-notifications glfw orbax-checkpoint
 tensorstore humanize aiofiles simplejson uvloop prometheus-client tensorboard"

@@ -15,7 +15,7 @@ import sys
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 PACKAGES = ("jax", "jaxlib", "flax", "optax", "mujoco", "mujoco-mjx", "brax", "distrax", "torch",
-            "gymnasium")
+            "gymnasium", "playground", "warp-lang")
 
 
 def _cpu_model() -> str:

@@ -5,7 +5,8 @@
 Playground (``playground==0.2.0``, imported as ``mujoco_playground``) is optional and imported
 on the first ``make`` of such a name only. Each task is loaded raw, with no Brax wrapper:
 ``registry.load(task, config_overrides={"impl": impl})``, MJX (``impl="jax"``) by default,
-which steps 30-50x faster than its MuJoCo Warp default on a CPU. The adapter
+which steps these tasks 30-50x faster than its MuJoCo Warp default on a CPU and 1.5-2.0x
+faster on an H100 (4,096 environments; BENCHMARKS.md). The adapter
 (`envs.task_adapter.TaskAdapter`) makes the task's 1000-step limit a truncation with the true
 final observation, its ``done`` a termination (Playground sets it on a non-finite state only),
 takes actions in the actuators' ``ctrlrange`` ([-1, 1] throughout the suite) and observations
