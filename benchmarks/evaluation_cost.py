@@ -13,7 +13,7 @@ jitted `vmap` as in a multi-seed training run:
     untrained    every seed freshly initialised: short episodes
 
 and, for the half-fallen population, the earlier loop that stepped ended episodes on from where
-they ended (`run_on_evaluate` below, the "before" of BENCHMARKS.md). Each figure is the median
+they ended (`run_on_evaluate` below, the "before"). Each figure is the median
 of `--repeats` timings after a first, compiling call; each population's mean return and longest
 episode are printed beside it (both loops give the same). `--lean-stages on|off` sets the
 environment's `envs.mjx_env.MjxEnv.lean_stages` (default: the platform's choice). Several

@@ -196,50 +196,37 @@ def brax() -> str:
 
 def memory() -> str:
     """Peak memory per replay slot and per seed against their data, and `sac_jax.memory`'s
-    estimate against the measured peak of each run (CPU: peak RSS; a GPU: peak device bytes)."""
-    quantities, runs = [], []
+    estimate against the measured peak (CPU: peak RSS; a GPU: peak device bytes): its range
+    over the grid's runs, and the largest run the memory check accepted."""
+    rows = []
     for name in [n for n in ("memory", _gpu("memory")) if n]:
         data = _load(name)
-        r, date = data["result"], _date(data)
+        r = data["result"]
         where, key = (("CPU", "peak_host_bytes") if name == "memory"
                       else (_machine(data), "peak_device_bytes"))
-        quantities += [
-            [f"{where}: per replay slot (`fast`, 1 seed)", date, f"{r['bytes_per_slot']:.1f}",
-             r["slot_data_bytes"], f"{r['per_slot_over_data']:.2f}", f"`{name}.json`"],
-            [f"{where}: per seed, its {r.get('seed_buffer_size', 1_000_000):,}-slot buffer "
-             "included (`fast`)", date, f"{r['bytes_per_seed']:,}", f"{r['seed_data_bytes']:,}",
-             f"{r['bytes_per_seed'] / r['seed_data_bytes']:.1f}", f"`{name}.json`"]]
-        if "estimate_over_peak" in r:
-            named = [(f"1 seed, {int(b):,} slots", m) for b, m in r["buffers"].items()] + [
-                (f"{s} seed{'s' * (int(s) > 1)}, {r['seed_buffer_size']:,} slots", m)
-                for s, m in r["seeds"].items()]
-            if "peak_device_bytes" in r.get("largest", {}) or "peak_host_bytes" in r.get(
-                    "largest", {}):  # the most seeds of a buffer the memory check accepted, run
-                m = r["largest"]
-                named.append((f"largest accepted: {m['seeds']:,} seeds, {m['buffer_size']:,} "
-                              f"slots, {m['available_bytes'] / 1e9:.1f} GB available", m))
-            seen = set()  # the grid's two axes share their 1-seed run: shown once
-            named = [(run, m) for run, m in named if not (run in seen or seen.add(run))]
-            runs += [[where, run, f"{m[key] / 1e6:,.0f}", f"{m['memory_model_peak_bytes'] / 1e6:,.0f}",
-                      f"{m['memory_model_peak_bytes'] / m[key]:.2f}"] for run, m in named]
-    table = _table(["quantity", "date", "peak bytes", "data bytes", "ratio", "results"], quantities)
-    if not runs:
-        return table
-    return table + "\n" + _table(
-        ["machine", "run (`fast`)", "measured peak MB", "estimate MB", "estimate / peak"], runs)
+        ratio = lambda m: m["memory_model_peak_bytes"] / m[key]
+        grid = list(r.get("estimate_over_peak", {}).values())
+        m = r.get("largest", {})
+        largest = ("-" if key not in m else
+                   f"{m['seeds']:,} seeds x {m['buffer_size']:,} slots: {m[key] / 1e9:.2f} GB, "
+                   f"estimate {ratio(m):.2f}x")
+        rows.append([where, f"{r['bytes_per_slot']:.1f} / {r['slot_data_bytes']} "
+                            f"({r['per_slot_over_data']:.2f}x)",
+                     f"{r['bytes_per_seed'] / 1e6:.2f} / {r['seed_data_bytes'] / 1e6:.2f} MB",
+                     _span(grid, "{:.2f}") + f" ({len(grid)} runs)"
+                     if grid else "-", largest, _date(data), f"`{name}.json`"])
+    return _table(["machine", "peak / data bytes per replay slot",
+                   "per seed (10,000-slot buffer)", "estimate / peak, 1-64 seeds, 10^4-10^7 "
+                   "slots", "largest accepted run", "date", "results"], rows)
 
 
 # The commands that write the results files of the tables below (BENCHMARKS.md's sizes).
 ENV_GPU = "bash benchmarks/gpu.sh env --sizes 8 1280 131072 --steps 1000 --lean-stages on off"
 ENV_CPU = ("python -m benchmarks.env_throughput --sizes 8 1280 --steps 1000 --lean-stages off on "
            "--gym-steps 5000 --rollout-steps 50")
-EVALUATION_GPU = "bash benchmarks/gpu.sh evaluation --seeds 1 256 --lean-stages on off"
-EVALUATION_CPU = ("python scripts/train.py --seed 0 --out /tmp/policy-run && "
-                  "python -m benchmarks.evaluation_cost /tmp/policy-run --seeds 2")
 UPDATES_CPU = "python -m benchmarks.update_throughput --updates 100 --rounds 10"
 SCALING_GPU = "bash benchmarks/gpu.sh updates --seeds 1 256 --hidden-dtype float32 bfloat16"
 SCALING_CPU = "python -m benchmarks.seed_scaling --seeds 1 2 --hidden-dtype float32 bfloat16"
-PROFILE_GPU = "bash benchmarks/gpu.sh profile"
 TORCH_CPU = "python -m benchmarks.torch_time_to_solve --threads 2"
 PROGRESS_CPU = {"fast": "python -m benchmarks.progress_overhead --repeats 5",
                 "pendulum": "python -m benchmarks.progress_overhead --preset pendulum --repeats 3"}
@@ -248,48 +235,35 @@ PARALLEL_GPUS = "bash benchmarks/gpu.sh parallel"  # on a host of 2 GPUs
 
 
 def _env_rows(name: str, data: dict) -> List[List[str]]:
+    """A row per backend and size: its default lean-stages setting, and the other beside it."""
     result, date = data["result"], _date(data)
-    rows = []
+    default = result.get("default_lean_stages")
+    groups = {}
     for r in result["rows"]:
-        lean = r["lean_stages"] or "-"
-        if r["lean_stages"] and r["lean_stages"] == result.get("default_lean_stages"):
-            lean += " (default)"
-        compile_s = "-" if r["compile_s"] is None else f"{r['compile_s']:.1f}"
-        rows.append([r["backend"], lean, f"{r['instances']:,}", f"{r['steps']:,}", compile_s,
-                     f"{r['env_steps_per_s']:,.0f}", date, f"`{name}.json`"])
+        groups.setdefault((r["backend"], r["instances"], r["steps"]), []).append(r)
+    rows = []
+    for (backend, instances, steps), rs in groups.items():
+        main = next((r for r in rs if r["lean_stages"] in (None, default)), rs[0])
+        other = next((r for r in rs if r is not main), None)
+        compile_s = "-" if main["compile_s"] is None else f"{main['compile_s']:.1f}"
+        rows.append([backend, f"{instances:,}", f"{steps:,}", compile_s,
+                     f"{main['env_steps_per_s']:,.0f}" + (f" ({main['lean_stages']})"
+                                                          if main["lean_stages"] else ""),
+                     "-" if other is None else
+                     f"{other['env_steps_per_s']:,.0f} ({other['lean_stages']})",
+                     date, f"`{name}.json`"])
     return rows
 
 
-ENV_HEADER = ["backend", "lean RK4 stages", "instances", "steps each", "compile s",
-              "env steps/s", "date", "results"]
+ENV_HEADER = ["backend", "instances", "steps each", "compile s",
+              "env steps/s (lean RK4 stages: default)", "lean stages flipped", "date", "results"]
 
 
-def env_gpu() -> str:
-    """MJX's env steps/s on one GPU, lean RK4 stages on and off."""
-    return _sources([(_gpu("env_throughput"), ENV_GPU)], ENV_HEADER, _env_rows)
-
-
-def env_cpu() -> str:
-    """MJX's env steps/s on the CPU, against C MuJoCo (Gymnasium's loop, mujoco.rollout)."""
-    return _sources([(_find("env_throughput-cpu"), ENV_CPU)], ENV_HEADER, _env_rows)
-
-
-def evaluation() -> str:
-    """Seconds of one evaluation (5 episodes per seed) of three populations, GPU and CPU."""
-    def rows_of(name, data):
-        return [[_machine(data), r["seeds"], r["lean_stages"] + (
-                    "" if r["lean_stages"] != "auto" else
-                    f" ({'on' if r['lean_stages_used'] else 'off'})"),
-                 f"{r['trained']['seconds']:.3f} ({r['trained']['first_call_s']:.1f})",
-                 f"{r['half fallen']['seconds']:.3f}",
-                 f"{r['half fallen, run-on loop']['seconds']:.3f}",
-                 f"{r['untrained']['seconds']:.3f}", _date(data), f"`{name}.json`"]
-                for r in data["result"]["rows"]]
-    return _sources([(_gpu("evaluation_cost"), EVALUATION_GPU),
-                     (_find("evaluation_cost-cpu"), EVALUATION_CPU)],
-                    ["machine", "seeds", "lean RK4 stages", "trained s (first call s)",
-                     "half fallen s", "half fallen, run-on loop s", "untrained s", "date",
-                     "results"], rows_of)
+def env() -> str:
+    """MJX's env steps/s on one GPU and on the CPU, lean RK4 stages on and off, and on the CPU
+    C MuJoCo (Gymnasium's loop, mujoco.rollout)."""
+    return _sources([(_gpu("env_throughput"), ENV_GPU), (_find("env_throughput-cpu"), ENV_CPU)],
+                    ENV_HEADER, _env_rows)
 
 
 UPDATE_FIGURES = [  # key, label, format, scale, target
@@ -340,26 +314,6 @@ def seed_scaling() -> str:
                      (_find("seed_scaling-cpu"), SCALING_CPU)],
                     ["machine", "seeds vmapped", "float32, updates/s",
                      "bfloat16 hidden layers, updates/s", "bfloat16 / float32", "date",
-                     "results"], rows_of)
-
-
-def profile() -> str:
-    """Kernel milliseconds of one training chunk by part of the iteration (GPU)."""
-    def rows_of(name, data):
-        rows = []
-        for r in data["result"]["rows"]:
-            parts = {p: ms for p, (_, ms) in r["kernels_and_ms_by_part"].items()}
-            rest = sum(ms for p, ms in parts.items()
-                       if p not in ("evaluate", "sac_update", "env_step"))
-            rows.append([f"{r['seeds']:,}", r["hidden_dtype"], f"{r['chunk_s'][-1]:.3f}",
-                         *(f"{parts.get(p, 0.0):.1f}" for p in ("evaluate", "sac_update",
-                                                                "env_step")),
-                         f"{rest:.1f}", f"{r['profiled_chunk_max_eval_return']:.0f}",
-                         _date(data), f"`{name}.json`"])
-        return rows
-    return _sources([(_gpu("profile_chunk"), PROFILE_GPU)],
-                    ["seeds", "hidden layers", "chunk s", "evaluate ms", "sac_update ms",
-                     "env_step ms", "other parts ms", "longest evaluation (steps)", "date",
                      "results"], rows_of)
 
 
@@ -577,18 +531,23 @@ def _playground_files() -> List[str]:
 
 
 def playground() -> str:
-    """Playground's raw task step against our adapter's, per task and backend."""
+    """Playground's raw task step against our adapter's, per task and machine, per backend."""
     def rows(name, data):
         where = "CPU" if name.endswith("-cpu") else _machine(data)
-        return [[r["task"], where, r["impl"], f"{r['envs']:,}",
-                 f"{r['steps_per_s']['raw']:,.0f}", f"{r['steps_per_s']['adapter']:,.0f}",
-                 f"{100 * r['overhead']:+.1f} %"] for r in data["result"]["rows"]]
+        groups = {}
+        for r in data["result"]["rows"]:
+            groups.setdefault(r["task"], []).append(r)
+        return [[task, where, f"{rs[0]['envs']:,}"] + [
+            "; ".join(f"{r['impl']}: {r['steps_per_s'][part]:,.0f}" for r in rs)
+            for part in ("raw", "adapter")] + [
+            "; ".join(f"{r['impl']}: {100 * r['overhead']:+.1f} %" for r in rs)]
+            for task, rs in groups.items()]
 
     return _sources([(_find("playground_adapter-cpu"), "python -m benchmarks.playground_adapter"),
                      (_gpu("playground_adapter"),
                       "bash benchmarks/gpu.sh playground_adapter --envs 4096 --steps 200")],
-                    ["task", "machine", "backend", "instances", "raw steps/s",
-                     "adapter steps/s", "adapter overhead"], rows)
+                    ["task", "machine", "instances", "raw steps/s", "adapter steps/s",
+                     "adapter overhead"], rows)
 
 
 def _peer_files() -> List[str]:
@@ -832,15 +791,15 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("GPU: 256 seeds in one run, ≥ 255/256 deliver ≥ 950, from process start to all "
      "delivered ≤ 2x one seed's (warm cache)", "Delivered policy", _target_delivered_gpu, 0),
     ("Brax's SAC on the same physics: ahead on time to solve and env steps/s",
-     "Brax's SAC on the same physics", _target_brax, 0),
+     "Brax's SAC and the PyTorch seed on the same task", _target_brax, 0),
     ("GPU: ≥ 3M env steps/s", "Environment throughput", _target_env_gpu, 0),
     ("Following a run (progress, TensorBoard, checkpoints): ≤ 5 % of its time on the host",
      "Following a run", _target_progress, 0),
     ("Following a run costs ≤ 2 % of the bare chunked run (followed / chunks), on the CPU "
      "and on one H100 with 256 seeds", "Following a run", _target_checkpoint_cost, 0),
     ("Memory: the estimate (`sac_jax.memory`) within 25 % of the measured peak, 1 to 64 seeds, "
-     "10^4 to 10^7 slots (CPU: peak RSS; GPU: peak device bytes)", "Memory", _target_memory, 0),
-    ("Memory: peak bytes per replay slot ≤ 1.15x the slot's own data, CPU and GPU", "Memory",
+     "10^4 to 10^7 slots (CPU: peak RSS; GPU: peak device bytes)", "Scale", _target_memory, 0),
+    ("Memory: peak bytes per replay slot ≤ 1.15x the slot's own data, CPU and GPU", "Scale",
      _target_memory_per_slot, 0),
     ("GPU: on each pendulum-family Playground task, ours reaches Playground SAC's final return in "
      "≤ 1/3 of its wall time", "MuJoCo Playground", _target_playground_peer, 0),
@@ -859,10 +818,10 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("Playground adapter overhead ≤ 5 % of the raw task step (pendulum family, CPU and GPU)",
      "MuJoCo Playground", _target_playground_adapter, 0),
     ("2 GPUs, data parallel: ≥ 1.8x one GPU on a large configuration (≥ 262,144 envs)",
-     "Several devices", _target_parallel, 0),
+     "Scale", _target_parallel, 0),
     ("GPU: a sweep of 64 settings x 4 seeds of `fast` in one program, wall time ≤ 3x one "
-     "seed's run", "Sweeps", lambda: _target_sweep("gpu", 3.0), 0),
-    ("CPU: 8 settings x 2 seeds in one program, reported against 16 separate runs", "Sweeps",
+     "seed's run", "Scale", lambda: _target_sweep("gpu", 3.0), 0),
+    ("CPU: 8 settings x 2 seeds in one program, reported against 16 separate runs", "Scale",
      lambda: _target_sweep("cpu", None), 0),
 ]
 
@@ -886,8 +845,8 @@ def targets() -> str:
 
 TABLES: Dict[str, Callable[[], str]] = {
     "targets": targets, "delivered-cpu": delivered_cpu, "delivered-gpu": delivered_gpu,
-    "presets": presets, "env-gpu": env_gpu, "env-cpu": env_cpu, "evaluation": evaluation,
-    "updates-cpu": updates_cpu, "seed-scaling": seed_scaling, "profile": profile,
+    "presets": presets, "env": env,
+    "updates-cpu": updates_cpu, "seed-scaling": seed_scaling,
     "brax": brax, "torch": torch_loop, "progress": progress, "parallel": parallel,
     "memory": memory, "sweep": sweep, "playground": playground,
     "playground-peer": playground_peer, "rejax": rejax, "compile-options": compile_options}

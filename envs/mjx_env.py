@@ -130,9 +130,10 @@ class MjxEnv(Env):
         fills every field of the result. One scan runs the 4 x frame_skip - 1 lean stages; a
         MuJoCo step ends after every fourth.
 
-        On an H100 (BENCHMARKS.md) a 1,000-step evaluation of 5 InvertedPendulum-v5 episodes
-        takes 0.38 s instead of 0.54 s, of 256 x 5 episodes 0.45 s instead of 0.60 s, and the
-        training chunk's environment steps 30 % less kernel time. On a CPU it is slower (0.138
+        On an H100 (`benchmarks/results/evaluation_cost-h100.json`) a 1,000-step evaluation
+        of 5 InvertedPendulum-v5 episodes takes 0.38 s instead of 0.55 s, of 256 x 5 episodes
+        0.45 s instead of 0.61 s, and the training chunk's environment steps 30 % less kernel
+        time. On a CPU it is slower (0.138
         against 0.105 ms per step of 8 instances) and costs 4 s more trace and compile of the
         default preset.
         """

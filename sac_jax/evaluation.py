@@ -26,8 +26,9 @@ def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int)
     policy's action. This kept fallen pendulums out of their joint limits while MJX's iterative
     constraint solver made limit contact costly on a GPU (H100: 2.2 s against 7.2 s stepping
     on, for 256 x 5 episodes half ended early). With `envs.active_set_solver` a step costs the
-    same either way (0.62 s against 0.65 s, BENCHMARKS.md). `tests/test_evaluation.py` checks
-    the returns against episodes run one by one.
+    same either way (H100, 256 x 5 episodes: 0.61 s against 0.64 s,
+    `benchmarks/results/evaluation_cost-h100.json`). `tests/test_evaluation.py` checks the
+    returns against episodes run one by one.
     """
     return evaluate_from(agent, env, actor_params, initial_states(env, key, num_episodes))
 
