@@ -52,6 +52,11 @@ def _load(task: str, impl: str):
     except ImportError:
         raise ValueError(f"environment {PREFIX + task!r} needs MuJoCo Playground: "
                          f"{INSTALL}") from None
+    if impl == "warp":
+        import warp
+
+        if warp.config.log_level == warp.LOG_INFO:  # its default: a line per kernel module loaded
+            warp.config.log_level = warp.LOG_WARNING
     return registry.load(task, config_overrides={"impl": impl})
 
 

@@ -105,6 +105,22 @@ def test_building_a_task_prints_nothing_where_warp_is_missing():
     assert proc.stdout == "5\n"
 
 
+def test_a_warp_task_steps_without_a_line_per_kernel_module(tmp_path):
+    """With MuJoCo Warp (`impl="warp"`), Warp logs a line per kernel module it loads, dozens
+    per step program; a task built by name keeps its log at warnings (here on the CPU, from
+    an empty kernel cache)."""
+    pytest.importorskip("warp")
+    code = (f"import warp; warp.config.kernel_cache_dir = {str(tmp_path)!r}; "
+            "import jax, jax.numpy as jnp, envs; "
+            "env = envs.make('playground/CartpoleBalance', impl='warp'); "
+            "state = jax.jit(env.step)(env.reset(jax.random.key(0)), "
+            "jnp.zeros(env.action_size)); print(float(state.reward) > 0)")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                          text=True, timeout=600, check=True)
+    assert proc.stdout == "True\n"
+    assert "load on device" not in proc.stdout + proc.stderr, proc.stderr[-2000:]
+
+
 def test_the_configs_env_impl_chooses_the_tasks_backend(monkeypatch):
     """`SACConfig.env_impl` reaches `registry.load`'s `impl` (MJX by default); on our own
     environments, which have no choice, it is refused naming the field."""
