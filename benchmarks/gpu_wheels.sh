@@ -13,9 +13,14 @@
 #          the modes of one device session in one carry (41 MB)
 #        bash benchmarks/gpu_wheels.sh warp       # warp-lang (149 MB) into .warp/ in three parts
 #          under the carry's 64 MiB: its warp.so xz-compressed and split (.warp/so.a, .warp/so.b),
-#          and the rest of the wheel (.warp/rest.whl). Carry them one per call to one warm machine
-#          (a carried path stays there while the machine is held), the last call with .warp/rest.whl;
-#          benchmarks/gpu.sh then puts warp together beside the other wheels (.whl/ must be there)
+#          and the rest of the wheel (.warp/rest.whl). A carried path is gone at the next call,
+#          so each call to one warm machine carries one part and copies it out of the tree:
+#            carry .warp/so.a:  mkdir -p /tmp/parts && cp .warp/so.a /tmp/parts/
+#            carry .warp/so.b:  cp .warp/so.b /tmp/parts/
+#            carry .whl:        cp -r .whl /tmp/parts/whl
+#            carry .warp/rest.whl:  cp -r /tmp/parts/whl .whl && cp /tmp/parts/so.* .warp/ &&
+#              bash benchmarks/gpu.sh playground_adapter --impl jax warp --envs 4096
+#          (benchmarks/gpu.sh puts warp together where it finds .warp/rest.whl)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ "${1:-}" = warp ]; then
