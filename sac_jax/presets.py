@@ -24,7 +24,8 @@
               evaluated every 8,192, for a GPU (on 2 CPU cores about half an hour); no stop,
               as no solved return is set: 8 seeds on an H200 delivered 290 on average (100 to
               625) in 141 s, against 156 with 64-wide networks (SAC in TD-MPC2's baselines:
-              354 after 1M steps)
+              354 after 1M steps); the preset as it is now, 8 seeds on an H100: 516.5 (150 to
+              753) in 149 s (`preset_search-PendulumSwingup-h100.json`)
     AcrobotSwingup  PendulumSwingup's with Playground SAC's scale: 128 environments, 8
               updates per step, batch 512, learning rates 1e-3, tau 0.005 and 8,192 steps
               before learning (a GPU preset; no solved return set): 8 seeds on an H200
