@@ -670,11 +670,11 @@ def compile_options() -> str:
     for r in data["result"]["variants"]:
         if "error" not in r:
             runs.setdefault(r["xla_flags"], []).append(r)
-    median = lambda values: sorted(values)[len(values) // 2]
+    median = statistics.median
     rows = [[f"`{flags}`" if flags else "XLA's defaults", len(rs),
              f"{_span([r['cold']['compile_s'] for r in rs], '{:.1f}')} (median "
-             f"{median([r['cold']['compile_s'] for r in rs]):.1f})",
-             f"{median([r['warm']['solved_wall_s'] for r in rs]):.2f}"]
+             f"{median(r['cold']['compile_s'] for r in rs):.1f})",
+             f"{median(r['warm']['solved_wall_s'] for r in rs):.2f}"]
             for flags, rs in runs.items()]
     return _from(name, data) + _table(["XLA flags", "runs", "cold compile s",
                                        "median training to solved s (warm)"], rows)
