@@ -1,14 +1,33 @@
-"""The README's Python examples run as written."""
+"""The Python examples of the README and of docs/ run as written. A block fenced ```python is a
+complete example and runs; one fenced ```python fragment (an excerpt of a module, a signature,
+a two-process script) is shown only."""
 
+import glob
 import os
 import re
 
-README = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PAGES = ["README.md"] + sorted(os.path.relpath(p, ROOT)
+                               for p in glob.glob(os.path.join(ROOT, "docs", "*.md")))
 
 
-def test_readme_python_examples_run(capsys):
-    blocks = re.findall(r"```python\n(.*?)```", open(README).read(), re.S)
-    assert len(blocks) >= 2
-    for block in blocks:
-        exec(compile(block, README, "exec"), {"__name__": "readme"})
+def examples(page: str) -> list:
+    with open(os.path.join(ROOT, page)) as f:
+        return re.findall(r"```python\n(.*?)```", f.read(), re.S)
+
+
+def test_the_readme_and_the_docs_with_examples_have_them():
+    assert len(examples("README.md")) >= 2
+    assert {page for page in PAGES if examples(page)} >= {"README.md", "docs/environments.md",
+                                                          "docs/parallel.md"}
+
+
+@pytest.mark.parametrize("page", [p for p in PAGES if examples(p)])
+def test_python_examples_run(page, capsys):
+    for block in examples(page):
+        if "playground" in block:
+            pytest.importorskip("mujoco_playground")
+        exec(compile(block, os.path.join(ROOT, page), "exec"), {"__name__": "docs"})
     assert "eval" not in capsys.readouterr().err
