@@ -212,11 +212,12 @@ def memory() -> str:
                    f"estimate {ratio(m):.2f}x")
         rows.append([where, f"{r['bytes_per_slot']:.1f} / {r['slot_data_bytes']} "
                             f"({r['per_slot_over_data']:.2f}x)",
-                     f"{r['bytes_per_seed'] / 1e6:.2f} / {r['seed_data_bytes'] / 1e6:.2f} MB",
+                     f"{r['bytes_per_seed'] / 1e6:.2f} / {r['seed_data_bytes'] / 1e6:.2f} MB "
+                     f"({r['seed_buffer_size']:,} slots)",
                      _span(grid, "{:.2f}") + f" ({len(grid)} runs)"
                      if grid else "-", largest, _date(data), f"`{name}.json`"])
     return _table(["machine", "peak / data bytes per replay slot",
-                   "per seed (10,000-slot buffer)", "estimate / peak, 1-64 seeds, 10^4-10^7 "
+                   "per seed, its buffer included", "estimate / peak, 1-64 seeds, 10^4-10^7 "
                    "slots", "largest accepted run", "date", "results"], rows)
 
 

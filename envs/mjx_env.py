@@ -133,9 +133,8 @@ class MjxEnv(Env):
         On an H100 (`benchmarks/results/evaluation_cost-h100.json`) a 1,000-step evaluation
         of 5 InvertedPendulum-v5 episodes takes 0.38 s instead of 0.55 s, of 256 x 5 episodes
         0.45 s instead of 0.61 s, and the training chunk's environment steps 30 % less kernel
-        time. On a CPU it is slower (0.138
-        against 0.105 ms per step of 8 instances) and costs 4 s more trace and compile of the
-        default preset.
+        time. On a CPU it is slower (0.138 against 0.105 ms per step of 8 instances) and costs
+        4 s more trace and compile of the default preset.
         """
         m = self.mjx_model
         a, b, ends = _rk4_weights(data, self._frame_skip)

@@ -276,7 +276,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         memory.check(config, seeds)
     t0 = time.perf_counter()
     parts, init, chunk, finite, sharding = compiled_program(config, seeds, tuple(values))
-    temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate))  # before the state exists
+    # before the state exists
+    temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate))
     model = memory.need(config, seeds, temporaries=temporaries, process=process)
     if resume is None:
         keys = jax.random.split(jax.random.key(seed), seed_keys)
