@@ -135,6 +135,18 @@ def test_the_configs_env_impl_chooses_the_tasks_backend(monkeypatch):
         sac_jax.SACConfig(env_impl="warp")
 
 
+def test_a_tasks_observation_size_is_read_once_however_often_its_env_is_built(monkeypatch):
+    """Reading Playground's `observation_size` traces the task's reset (0.3-1.1 s), and a run
+    builds its environment several times: the adapter reads it once per task."""
+    task = env_task()
+    reads = []
+    monkeypatch.setattr(type(task), "observation_size", property(
+        lambda self: reads.append(1) or {"state": (5,)}))
+    monkeypatch.setattr(playground, "_load", lambda name, impl: task)
+    sizes = [envs.make(NAME).observation_size for _ in range(3)]
+    assert sizes == [5, 5, 5] and reads == [1]
+
+
 def env_task():
     return registry.load("CartpoleBalance", config_overrides={"impl": "jax"})
 

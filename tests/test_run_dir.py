@@ -46,3 +46,21 @@ def test_write_file_is_whole_or_absent(tmp_path, monkeypatch, replace, final_ste
     with pytest.raises(OSError, match="No space left"):
         run_dir.write_file(path, b"third", replace=replace)
     assert os.listdir(tmp_path) == []
+
+
+def test_the_state_template_is_traced_once_per_configuration(monkeypatch):
+    """`state_template` (before a run compiles and after) traces the state's constructor once
+    per (config, seeds, settings): the same shapes come back without a second trace, and
+    another seed count or setting traces anew."""
+    from sac_jax import PRESETS
+
+    traced = []
+    real = run_dir.make_train_parts
+    monkeypatch.setattr(run_dir, "make_train_parts", lambda c: traced.append(1) or real(c))
+    run_dir._state_template.cache_clear()
+    config = PRESETS["fast"].replace(buffer_size=4096, num_envs=2)
+    first = run_dir.state_template(config, 2)
+    assert run_dir.state_template(config, 2) is first and len(traced) == 1
+    assert run_dir.state_template(config, 3).buffer.data.obs.shape[0] == 3
+    swept = run_dir.state_template(config, 2, {"actor_lr": [1e-3, 3e-3]})
+    assert swept.buffer.data.obs.shape[0] == 4 and len(traced) == 3
