@@ -52,7 +52,7 @@ def run_on_evaluate(agent, env, actor_params, key, num_episodes):
         returns = returns + jnp.where(alive, states.reward, 0.0)
         return states, alive & ~(states.terminated | states.truncated), returns
 
-    init = (initial_states(env, key, num_episodes), jnp.ones(num_episodes, bool),
+    init = (initial_states(env, jax.random.split(key, num_episodes)), jnp.ones(num_episodes, bool),
             jnp.zeros(num_episodes, jnp.float32))
     return jax.lax.while_loop(lambda carry: jnp.any(carry[1]), step, init)[2]
 

@@ -9,10 +9,10 @@ from envs.vector import where_rows
 from sac_jax.agent import Agent
 
 
-def initial_states(env, key: jax.Array, num_episodes: int):
-    """The batched `EnvState` (leading axis num_episodes) that `evaluate(..., key,
-    num_episodes)` starts its episodes from."""
-    return jax.vmap(env.reset)(jax.random.split(key, num_episodes))
+def initial_states(env, keys: jax.Array):
+    """The batched `EnvState` of a fresh episode per key (leading axis len(keys)); `evaluate(...,
+    key, num_episodes)` starts from those of `jax.random.split(key, num_episodes)`."""
+    return jax.vmap(env.reset)(keys)
 
 
 def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int) -> jax.Array:
@@ -30,7 +30,8 @@ def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int)
     `benchmarks/results/evaluation_cost-h100.json`). `tests/test_evaluation.py` checks the
     returns against episodes run one by one.
     """
-    return evaluate_from(agent, env, actor_params, initial_states(env, key, num_episodes))
+    return evaluate_from(agent, env, actor_params,
+                         initial_states(env, jax.random.split(key, num_episodes)))
 
 
 def evaluate_from(agent: Agent, env, actor_params, start) -> jax.Array:

@@ -226,12 +226,12 @@ def make_train_parts(config: SACConfig,
         actor = runner.sac.actor_params
         with jax.named_scope("evaluate"):
             episodes, confirm_episodes = config.eval_episodes, config.confirm_episodes
-            start = initial_states(env, k_eval, episodes)
-            # the confirmation's episodes: a key no other evaluation draws from
-            confirm_start = initial_states(env, jax.random.fold_in(k_eval, 1), confirm_episodes)
-            # one batch: one traced copy of the environment's step for evaluation
-            returns = evaluate_from(agent, env, actor, jax.tree_util.tree_map(
-                lambda a, b: jnp.concatenate([a, b]), start, confirm_start))
+            # the confirmation's episodes from a key no other evaluation draws from; one batch
+            # of starts and episodes: one traced copy of the environment's reset and step
+            starts = initial_states(env, jnp.concatenate([
+                jax.random.split(k_eval, episodes),
+                jax.random.split(jax.random.fold_in(k_eval, 1), confirm_episodes)]))
+            returns = evaluate_from(agent, env, actor, starts)
             out["eval_return"] = mean_return(returns[:episodes])
             delivered, out["confirm_return"] = selection.select(
                 runner.delivered, actor, out["eval_return"], mean_return(returns[episodes:]),

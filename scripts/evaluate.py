@@ -75,7 +75,7 @@ class EvaluateArgs:
 
 def our_returns(policy: sac_jax.SavedPolicy, env, episodes: int, key: jax.Array) -> np.ndarray:
     """Returns (episodes,) of `sac_jax.evaluate` in our environment, started from
-    `initial_states(env, key, episodes)`."""
+    `initial_states(env, jax.random.split(key, episodes))`."""
     run = jax.jit(lambda params, key: sac_jax.evaluate(policy.agent, env, params, key, episodes))
     return np.asarray(run(policy.actor_params, key), np.float64)
 
@@ -162,7 +162,7 @@ def main(argv=None) -> int:
         if use_ours:
             results["ours"] = _summary(our_returns(policy, env, args.episodes, key))
         if use_gym:
-            starts = (jax.device_get(initial_states(env, key, args.episodes).data)
+            starts = (jax.device_get(initial_states(env, jax.random.split(key, args.episodes)).data)
                       if args.paired else None)
             results["gymnasium"] = _summary(
                 gymnasium_returns(policy, gym_env, args.episodes, args.episode_seed, starts))

@@ -22,7 +22,7 @@ def setup():
 def one_at_a_time(agent, env, params, key):
     """Each episode stepped alone from its initial state until it terminates or truncates."""
     step = jax.jit(lambda state, params: env.step(state, agent.act(params, state.obs)))
-    starts = initial_states(env, key, EPISODES)
+    starts = initial_states(env, jax.random.split(key, EPISODES))
     returns = []
     for i in range(EPISODES):
         state, total, done = jax.tree_util.tree_map(lambda x: x[i], starts), 0.0, False

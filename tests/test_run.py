@@ -109,17 +109,19 @@ def test_a_stop_the_device_does_not_answer_in_time_leaves_the_chunk():
 
 
 def test_an_evaluation_and_its_confirmation_in_one_batch_return_what_each_alone_does():
-    """The loop steps an evaluation's and its confirmation's episodes as one batch: each
-    episode's return is the one it has in a batch of its own set (to float32 rounding of a
-    batch of another size: relative 1e-4)."""
+    """The loop resets and steps an evaluation's and its confirmation's episodes as one batch:
+    each episode starts where a batch of its own set starts it, and its return is the one it
+    has there (to float32 rounding of a batch of another size: relative 1e-4)."""
     from sac_jax.evaluation import evaluate_from, initial_states
     from sac_jax.train import agent_for
 
     agent, env = agent_for(CONFIG)
     actor = agent.init(jax.random.key(0)).actor_params
-    start = initial_states(env, jax.random.key(1), 2)
-    confirm_start = initial_states(env, jax.random.key(2), 3)
-    both = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), start, confirm_start)
+    keys = jax.random.split(jax.random.key(1), 5)
+    start, confirm_start = initial_states(env, keys[:2]), initial_states(env, keys[2:])
+    both = initial_states(env, keys)
+    np.testing.assert_allclose(both.obs, np.concatenate([start.obs, confirm_start.obs]),
+                               rtol=1e-6)
     evaluate = jax.jit(lambda s: evaluate_from(agent, env, actor, s))
     np.testing.assert_allclose(
         evaluate(both), np.concatenate([evaluate(start), evaluate(confirm_start)]), rtol=1e-4)
