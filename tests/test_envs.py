@@ -183,6 +183,26 @@ def test_lean_stages_default_follows_the_backend(monkeypatch):
     assert not env._uses_lean_stages()
 
 
+@pytest.mark.parametrize("lean", [False, True])
+def test_vmapped_step_batches_the_rk4_stages_once(monkeypatch, lean):
+    """Tracing a vmapped step batches the RK4 stages' scan body once: its carry starts batched
+    (`envs.mjx_env._zero_sums`), so JAX's scan batching rule needs no second pass. Counted
+    at JAX 0.10's `batching.batch_jaxpr`, which that rule calls once per pass."""
+    from jax._src.lax.control_flow import loops
+
+    passes = []
+    batch_jaxpr = loops.batching.batch_jaxpr
+    monkeypatch.setattr(loops.batching, "batch_jaxpr",
+                        lambda jaxpr, *args, **kwargs: passes.append(len(jaxpr.jaxpr.eqns))
+                        or batch_jaxpr(jaxpr, *args, **kwargs))
+    env = envs.make("InvertedPendulum-v5")
+    env.lean_stages = lean
+    states = jax.vmap(env.reset)(jax.random.split(jax.random.key(0), 4))
+    jax.make_jaxpr(jax.vmap(env.step))(states, jnp.zeros((4, env.action_size)))
+    stages = [n for n in passes if n > 1000]  # the stages' body; the others are small scans
+    assert len(stages) == 1, passes
+
+
 def test_errors():
     with pytest.raises(ValueError, match="CartPole-v1.*InvertedPendulum-v5"):
         envs.make("CartPole-v1")
