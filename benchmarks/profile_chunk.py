@@ -1,9 +1,9 @@
 """Where one training chunk's GPU time goes: kernels and kernel time by part of the iteration.
 
-    python -m benchmarks.profile_chunk [--seeds 1 256] [--hidden-dtype bfloat16] [--chunks 4]
-                                       [--top 10]
+    python -m benchmarks.profile_chunk [--preset fast] [--seeds 1 256] [--hidden-dtype bfloat16]
+                                       [--chunks 4] [--top 10]
 
-For each seed count: compiles the chunk of the `fast` preset as `scripts/train.py --seeds S`
+For each seed count: compiles the chunk of the preset as `scripts/train.py --seeds S`
 runs it on one device (`sac_jax.parallel.seeds_program`), runs `--chunks` chunks (the first
 is the prefill), then one more under `jax.profiler.trace`. Each GPU kernel of that chunk is
 mapped to the fused HLO instruction it runs (its name) and through that instruction's `op_name`
@@ -11,8 +11,8 @@ to the part of `sac_jax.train`'s iteration it comes from, by the named scopes th
 env_step, replay_add, replay_sample, sac_update, evaluate. Kernels of no part (loop counters,
 copies between loop iterations, metric sums) count as "other". Prints one JSON line per seed
 count: the compile and chunk seconds without the profiler, the profiled chunk's highest
-evaluation return (InvertedPendulum-v5 scores 1 per step, so about its evaluation's length in
-steps), and per part [kernels, kernel ms]; with `--top N`, each part's N kernels of most time
+evaluation return (for `fast`, InvertedPendulum-v5 scores 1 per step, so about its evaluation's
+length in steps), and per part [kernels, kernel ms]; with `--top N`, each part's N kernels of most time
 (kernel name, launches, ms, the tail of its op_name). Needs a GPU: a CPU trace holds no kernels.
 All lines are written to benchmarks/results/NAME.json (`--name`, default profile_chunk-KIND:
 profile_chunk-h100; command, machine, versions, date).
@@ -87,8 +87,8 @@ def kernel_time_by_part(trace_dir: str, names: dict, top: int) -> tuple:
     return by_part, tops
 
 
-def profile(seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
-    config = dataclasses.replace(PRESETS["fast"], hidden_dtype=hidden_dtype)
+def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
+    config = dataclasses.replace(PRESETS[preset], hidden_dtype=hidden_dtype)
     parts = make_train_parts(config)  # as sac_jax.run builds it
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
     chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
@@ -108,7 +108,7 @@ def profile(seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
             int(state.iteration)
         by_part, tops = kernel_time_by_part(trace_dir, op_names(compiled.as_text()), top)
     returns = jax.device_get(state.outputs["eval_return"])
-    return {"seeds": seeds, "hidden_dtype": hidden_dtype, "device": jax.devices()[0].device_kind,
+    return {"preset": preset, "seeds": seeds, "hidden_dtype": hidden_dtype, "device": jax.devices()[0].device_kind,
             "compile_s": round(compile_s, 1), "chunk_s": walls,
             "profiled_chunk_max_eval_return": float(returns[:, chunks - 1].max()),
             "kernels_and_ms_by_part": by_part, **({"top_kernels": tops} if top else {})}
@@ -117,6 +117,7 @@ def profile(seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--preset", choices=sorted(PRESETS), default="fast")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 256])
     parser.add_argument("--hidden-dtype", choices=["float32", "bfloat16"], default="bfloat16")
     parser.add_argument("--chunks", type=int, default=4,
@@ -128,7 +129,7 @@ def main(argv=None) -> None:
     source = provenance()
     rows = []
     for seeds in args.seeds:
-        rows.append(profile(seeds, args.hidden_dtype, args.chunks, args.top))
+        rows.append(profile(args.preset, seeds, args.hidden_dtype, args.chunks, args.top))
         print(json.dumps(rows[-1]), flush=True)
     write_result(args.name or result_name("profile_chunk"), {"rows": rows}, source)
 

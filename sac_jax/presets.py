@@ -28,7 +28,10 @@
               8 at 630 or more) against 516.5, and 16 other seeds 582.0 (13 of 16 at 265.5 or
               more) against 465.3 (12 of 16) (`preset_search-PendulumSwingup-alpha-h100.json`,
               `-alpha16-h100.json`); 256-wide networks had delivered 290 against 156 with
-              64-wide ones (8 seeds, H200). SAC in TD-MPC2's baselines: 354 after 1M steps
+              64-wide ones (8 seeds, H200). SAC in TD-MPC2's baselines: 354 after 1M steps.
+              16 seeds vmapped take 1.9x one seed's time per chunk on an H100 (2.75 s against
+              1.45 s): the same kernels, each about twice as long, the update's 256-wide
+              matrix products most (`profile_chunk-PendulumSwingup-h100.json`)
     AcrobotSwingup  PendulumSwingup's with Playground SAC's scale: 128 environments, 8
               updates per step, batch 512, tau 0.005 and 8,192 steps before learning, and a
               starting temperature of 1 (a GPU preset; no solved return set): 8 seeds on an H200
