@@ -34,8 +34,10 @@ TASKS = ("AcrobotSwingup", "AcrobotSwingupSparse", "BallInCup", "CartpoleBalance
 """Playground 0.2.0's DeepMind Control Suite (`mujoco_playground.dm_control_suite.ALL_ENVS`,
 checked by tests/test_playground.py), listed here so that naming them needs no import."""
 
-SOLVED = {"CartpoleBalance": 900.0, "CartpoleSwingup": 800.0}
-"""Returns (of 1000) at which a task counts as solved, where one is set."""
+SOLVED = {"CartpoleBalance": 900.0, "CartpoleSwingup": 800.0, "PendulumSwingup": 300.0}
+"""Returns (of 1000) at which a task counts as solved: SAC's after 1M steps in TD-MPC2's
+baselines (cartpole balance 998, swingup 839, pendulum swingup 354) rounded down to a hundred.
+Other tasks have none set (AcrobotSwingup: no such figure at hand)."""
 
 
 def task_name(name: str) -> str:

@@ -36,6 +36,9 @@ def test_the_task_list_is_playgrounds_control_suite():
     assert playground.TASKS == tuple(dm_control_suite.ALL_ENVS)
     assert all(envs.spec(playground.PREFIX + t).gymnasium_id is None for t in playground.TASKS)
     assert set(envs.registered()) >= {playground.PREFIX + t for t in playground.TASKS}
+    solved = {t: envs.spec(playground.PREFIX + t).solved_return for t in playground.TASKS}
+    assert {t: r for t, r in solved.items() if r is not None} == {  # SAC's after 1M steps, floored
+        "CartpoleBalance": 900.0, "CartpoleSwingup": 800.0, "PendulumSwingup": 300.0}
 
 
 def test_steps_are_the_tasks_own_until_the_limit_truncates_with_the_final_observation(env):
