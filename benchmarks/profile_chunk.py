@@ -12,10 +12,10 @@ env_step, replay_add, replay_sample, sac_update, evaluate. Kernels of no part (l
 copies between loop iterations, metric sums) count as "other". Prints one JSON line per seed
 count: the compile and chunk seconds without the profiler, the profiled chunk's highest
 evaluation return (for `fast`, InvertedPendulum-v5 scores 1 per step, so about its evaluation's
-length in steps), and per part [kernels, kernel ms]; with `--top N`, each part's N kernels of most time
-(kernel name, launches, ms, the tail of its op_name). Needs a GPU: a CPU trace holds no kernels.
-All lines are written to benchmarks/results/NAME.json (`--name`, default profile_chunk-KIND:
-profile_chunk-h100; command, machine, versions, date).
+length in steps), and per part [kernels, kernel ms]; with `--top N`, each part's N kernels of
+most time (kernel name, launches, ms, the tail of its op_name). Needs a GPU: a CPU trace holds
+no kernels. All lines are written to benchmarks/results/NAME.json (`--name`, default
+profile_chunk-KIND: profile_chunk-h100; command, machine, versions, date).
 """
 
 from __future__ import annotations
@@ -108,8 +108,9 @@ def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -
             int(state.iteration)
         by_part, tops = kernel_time_by_part(trace_dir, op_names(compiled.as_text()), top)
     returns = jax.device_get(state.outputs["eval_return"])
-    return {"preset": preset, "seeds": seeds, "hidden_dtype": hidden_dtype, "device": jax.devices()[0].device_kind,
-            "compile_s": round(compile_s, 1), "chunk_s": walls,
+    return {"preset": preset, "seeds": seeds, "hidden_dtype": hidden_dtype,
+            "device": jax.devices()[0].device_kind, "compile_s": round(compile_s, 1),
+            "chunk_s": walls,
             "profiled_chunk_max_eval_return": float(returns[:, chunks - 1].max()),
             "kernels_and_ms_by_part": by_part, **({"top_kernels": tops} if top else {})}
 

@@ -24,12 +24,12 @@
               starting temperature of 0.1 and 409,600 steps evaluated every 8,192, for a GPU
               (on 2 CPU cores about half an hour); no stop at the task's solved return (300):
               most seeds go on to deliver over 600. On an H100 (`benchmarks/preset_search.py`),
-              against the same without the last two
-              (learning rates 3e-3, temperature 1): 8 seeds delivered 588.3 on average (6 of
-              8 at 630 or more) against 516.5, and 16 other seeds 582.0 (13 of 16 at 265.5 or
-              more) against 465.3 (12 of 16) (`preset_search-PendulumSwingup-alpha-h100.json`,
-              `-alpha16-h100.json`); 256-wide networks had delivered 290 against 156 with
-              64-wide ones (8 seeds, H200). SAC in TD-MPC2's baselines: 354 after 1M steps.
+              against the same without the last two (learning rates 3e-3, temperature 1): 8
+              seeds delivered 588.3 on average (6 of 8 at 630 or more) against 516.5, and 16
+              other seeds 582.0 (13 of 16 at 265.5 or more) against 465.3 (12 of 16)
+              (`preset_search-PendulumSwingup-alpha-h100.json`, `-alpha16-h100.json`);
+              256-wide networks had delivered 290 against 156 with 64-wide ones (8 seeds,
+              H200). SAC in TD-MPC2's baselines: 354 after 1M steps.
               16 seeds vmapped take 1.9x one seed's time per chunk on an H100 (2.75 s against
               1.45 s): the same kernels, each about twice as long, the update's 256-wide
               matrix products most (`profile_chunk-PendulumSwingup-h100.json`)
