@@ -184,23 +184,27 @@ def test_lean_stages_default_follows_the_backend(monkeypatch):
 
 
 @pytest.mark.parametrize("lean", [False, True])
-def test_vmapped_step_batches_the_rk4_stages_once(monkeypatch, lean):
-    """Tracing a vmapped step batches the RK4 stages' scan body once: its carry starts batched
-    (`envs.mjx_env._zero_sums`), so JAX's scan batching rule needs no second pass. Counted
-    at JAX 0.10's `batching.batch_jaxpr`, which that rule calls once per pass."""
+def test_a_vmapped_step_traces_the_forward_once_and_batches_each_scan_once(monkeypatch, lean):
+    """Tracing a vmapped step traces MuJoCo's forward once in either RK4 form (the lean form's
+    two calls share one jitted trace) and batches each scan body in one pass: the RK4 sums
+    start batched (`envs.mjx_env._zero_sums`), so JAX's scan batching rule needs no second
+    pass. Passes are counted at JAX 0.10's `batching.batch_jaxpr`, called once per pass."""
     from jax._src.lax.control_flow import loops
 
-    passes = []
-    batch_jaxpr = loops.batching.batch_jaxpr
-    monkeypatch.setattr(loops.batching, "batch_jaxpr",
-                        lambda jaxpr, *args, **kwargs: passes.append(len(jaxpr.jaxpr.eqns))
-                        or batch_jaxpr(jaxpr, *args, **kwargs))
+    from envs import active_set_solver
+
     env = envs.make("InvertedPendulum-v5")
     env.lean_stages = lean
     states = jax.vmap(env.reset)(jax.random.split(jax.random.key(0), 4))
+    passes, forwards = [], []
+    batch_jaxpr, forward = loops.batching.batch_jaxpr, active_set_solver.forward
+    monkeypatch.setattr(loops.batching, "batch_jaxpr", lambda jaxpr, *args, **kwargs:
+                        passes.append(id(jaxpr)) or batch_jaxpr(jaxpr, *args, **kwargs))
+    monkeypatch.setattr(active_set_solver, "forward",
+                        lambda *args: forwards.append(1) or forward(*args))
     jax.make_jaxpr(jax.vmap(env.step))(states, jnp.zeros((4, env.action_size)))
-    stages = [n for n in passes if n > 1000]  # the stages' body; the others are small scans
-    assert len(stages) == 1, passes
+    assert len(forwards) == 1
+    assert passes and len(passes) == len(set(passes)), passes
 
 
 def test_errors():
