@@ -135,17 +135,18 @@ class MjxEnv(Env):
         On an H100 (`benchmarks/results/evaluation_cost-h100.json`) a 1,000-step evaluation
         of 5 InvertedPendulum-v5 episodes takes 0.38 s instead of 0.55 s, of 256 x 5 episodes
         0.45 s instead of 0.61 s, and the training chunk's environment steps 30 % less kernel
-        time. On a CPU it is slower (0.138 against 0.105 ms per step of 8 instances) and costs
-        4 s more trace and compile of the default preset; on an H100 it costs about 2 s of a
-        cold `fast` run's 19 s compile and saves 0.25 s of its 1.95 s training (ad hoc, one
-        cold and warm run each; `compile_options-levels-h100.json` has the lean runs).
+        time. On a CPU it is slower (0.138 against 0.105 ms per step of 8 instances). Before
+        the forward's two calls shared a trace, it cost 4 s more trace and compile of the
+        default preset on a CPU, and on an H100 about 2 s of a cold `fast` run's 19 s compile
+        while saving 0.25 s of its 1.95 s training (ad hoc, one cold and warm run each;
+        `compile_options-levels-h100.json` has the lean runs).
         """
         m = self.mjx_model
         a, b, ends = _rk4_weights(data, self._frame_skip)
         zeros = _zero_sums(data)
 
-        stage_forward = jax.jit(lambda data, start, k, a_s: active_set_solver.forward(
-            m, self._stage_input(data, start, k, a_s)))
+        stage_forward = jax.jit(lambda d, start, k, a_s: active_set_solver.forward(
+            m, self._stage_input(d, start, k, a_s)))
 
         def stage(carry, x):
             start, k, sums = carry
