@@ -11,6 +11,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -244,6 +245,7 @@ def test_each_point_is_logged_once_after_kills_and_resumes(runs, tmp_path, offli
         assert step in tensorboard_steps(os.path.join(out, "tensorboard"))
         print("W&B held after the kill:", sorted(wandb_steps(out)))
         assert _last_checkpointed_step(out) == step - 1000  # the point will be computed again
+        time.sleep(1.0)  # W&B names a process's log folder by the second: the next has its own
     assert train_script.main(["--resume", out]) == 0
     scalars = tensorboard_scalars(os.path.join(out, "tensorboard"))
     keys = [(tag, step) for tag, step, _ in scalars]
