@@ -14,7 +14,9 @@ measured two ways for each `--seeds` count:
   (`ONE_POINT`), whose difference gives the share of the run its 20 evaluations take;
 * script: `python scripts/train.py ... --seeds N` in a subprocess with a fresh compilation cache
   (cold) and again with it filled (warm): process wall time, and the summary's `run_s` (training
-  after compilation), the time that issue 28 puts against the program's run time.
+  after compilation), the time that issue 28 puts against the program's run time. On a CPU the
+  script makes one device per core and splits the seeds over them (`seed_devices`, recorded);
+  the program runs on this process's one device, as rejax does.
 
 End to end, each side is timed from its process's start to its trained result (writing results
 and exiting excluded on both): rejax's `to_result_s` (rejax_side.py, one process per seed count:
@@ -89,7 +91,8 @@ def script(seeds: int, cache_dir: str) -> dict:
                 startup_s=summary["startup_s"],
                 to_result_s=round(summary["startup_s"] + summary["compile_s"]
                                   + summary["run_s"], 3),
-                delivered_mean=round(float(np.mean(summary["delivered_return"])), 1))
+                delivered_mean=round(float(np.mean(summary["delivered_return"])), 1),
+                seed_devices=summary["seed_devices"])
 
 
 def main() -> None:

@@ -608,7 +608,9 @@ def rejax() -> str:
             j, p, cold, warm = r["rejax"], r["program"], r["script_cold"], r["script_warm"]
             out.append([where, r["seeds"], f"{j['compile_s']:.1f} + {j['run_s']:.2f} s",
                         f"{p['compile_s']:.1f} + {p['run_s']:.2f} s",
-                        f"{warm['run_s']:.2f} s ({r['script_over_program']:.2f}x)",
+                        f"{warm['run_s']:.2f} s ({r['script_over_program']:.2f}x)"
+                        + (f", {warm['seed_devices']} devices" if warm.get("seed_devices", 1) > 1
+                           else ""),
                         f"{j['to_result_s']:.1f} / {cold['to_result_s']:.1f} / "
                         f"{warm['to_result_s']:.1f} s",
                         f"{r['rejax_over_script_to_result_cold']:.2f}x / "

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Literal, Optional, Sequence, Type, TypeVar
 import tyro
 from tyro import _errors
 
-from sac_jax import metric_writers, plots
+from sac_jax import metric_writers, parallel, plots
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
 
 if TYPE_CHECKING:
@@ -95,6 +95,14 @@ def run_main(main) -> None:
         sys.stderr.flush()
         os._exit(leave.code)
     sys.exit(code)
+
+
+def device_split(seeds: int) -> str:
+    """" over D <platform> devices" when `seeds` seeds are split over several devices
+    (`sac_jax.parallel.seed_devices`), else ""."""
+    devices = parallel.seed_devices(seeds)
+    return (f" over {len(devices)} {devices[0].platform.upper()} devices" if len(devices) > 1
+            else "")
 
 
 def fail(error: Exception, code: int) -> int:

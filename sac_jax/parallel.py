@@ -24,7 +24,8 @@ first, then build the mesh from `jax.devices()` (docs/parallel.md).
 
 from __future__ import annotations
 
-from typing import Callable, Dict, Optional, Sequence
+import os
+from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import jax
 import jax.numpy as jnp
@@ -74,8 +75,13 @@ def over_seeds(fn: Callable, mesh: Mesh, in_axes=0, out_axes=0, donate: bool = F
     partitioner (seeds never communicate, so it inserts no collective). `jax.shard_map` would
     say the same thing, but XLA's GPU compiler of jax 0.11.2 crashes on the shard_mapped
     training program (BENCHMARKS.md), while this form compiles and runs on 2 GPUs."""
-    return jax.jit(jax.vmap(fn, in_axes, out_axes), in_shardings=_shardings(in_axes, mesh),
-                   out_shardings=_shardings(out_axes, mesh), donate_argnums=(0,) if donate else ())
+    return jax.jit(jax.vmap(fn, in_axes, out_axes), donate_argnums=(0,) if donate else (),
+                   **_placement(in_axes, out_axes, mesh))
+
+
+def _placement(in_axes, out_axes, mesh: Mesh) -> dict:
+    """`jax.jit`'s in_shardings and out_shardings of `over_seeds`."""
+    return dict(in_shardings=_shardings(in_axes, mesh), out_shardings=_shardings(out_axes, mesh))
 
 
 def over_seed_axis(fn: Callable, seeds: int, in_axes=0, out_axes=0) -> Callable:
@@ -100,15 +106,50 @@ def over_seed_axis(fn: Callable, seeds: int, in_axes=0, out_axes=0) -> Callable:
     return one_seed
 
 
+def seed_devices(seeds: int, devices: Optional[Sequence[jax.Device]] = None) -> list:
+    """The devices (default: the local ones) that `seeds` seeds are split over: the first k,
+    k the largest number of them that divides `seeds` (one device for one seed)."""
+    devices = jax.local_devices() if devices is None else list(devices)
+    return devices[:max(k for k in range(1, len(devices) + 1) if seeds % k == 0)]
+
+
+def seed_mapping(fn: Callable, seeds: int, in_axes=0, out_axes=0) -> Tuple[Callable, dict]:
+    """(`fn` mapped over `seeds` seeds, `jax.jit`'s keyword arguments that place it): on
+    `seed_devices(seeds)` when they are several, `jax.vmap(fn)` with the `in_shardings` and
+    `out_shardings` of `over_seeds`; on one device, `over_seed_axis` and no placement."""
+    devices = seed_devices(seeds)
+    if len(devices) == 1:
+        return over_seed_axis(fn, seeds, in_axes, out_axes), {}
+    return jax.vmap(fn, in_axes, out_axes), _placement(in_axes, out_axes,
+                                                       make_mesh(SEEDS, devices))
+
+
 def seeds_program(fn: Callable, seeds: int, in_axes=0, out_axes=0, donate: bool = False
                   ) -> Callable:
-    """`over_seeds` on all local devices when there are several and they divide `seeds`;
-    otherwise `jax.jit(over_seed_axis(fn, seeds, in_axes, out_axes))` on one device."""
-    devices = jax.local_devices()
-    if len(devices) > 1 and seeds % len(devices) == 0:
-        return over_seeds(fn, make_mesh(SEEDS, devices), in_axes, out_axes, donate)
-    return jax.jit(over_seed_axis(fn, seeds, in_axes, out_axes),
-                   donate_argnums=(0,) if donate else ())
+    """`jax.jit` of `seed_mapping`: `over_seeds` on `seed_devices(seeds)` when they are
+    several, otherwise `over_seed_axis` on one device. `donate` donates the first argument."""
+    mapped, placement = seed_mapping(fn, seeds, in_axes, out_axes)
+    return jax.jit(mapped, donate_argnums=(0,) if donate else (), **placement)
+
+
+def cpu_device_per_core() -> None:
+    """Makes JAX's CPU backend one device per CPU core this process may use
+    (`jax_num_cpu_devices`), so that `seeds_program` runs the seed groups of a CPU run on the
+    cores at once. XLA's CPU runtime keeps SAC's small layers mostly on one thread: 16 seeds of
+    rejax's Pendulum-v1 configuration (64 wide, batch 256) trained 10k steps in 116.9 s on one
+    CPU device and in 54.7 s on two (2 cores, `scripts/train.py`, BENCHMARKS.md). Takes effect
+    only before JAX starts its backends (the first array or device query); it leaves a count
+    set already by $JAX_NUM_CPU_DEVICES or XLA_FLAGS' --xla_force_host_platform_device_count.
+    Scripts call it; a library import does not."""
+    if (jax.config.jax_num_cpu_devices != -1
+            or "xla_force_host_platform_device_count" in os.environ.get("XLA_FLAGS", "")):
+        return
+    try:
+        cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                 else os.cpu_count() or 1)
+        jax.config.update("jax_num_cpu_devices", cores)
+    except RuntimeError:  # the backends have started: keep their devices
+        pass
 
 
 # ---------------------------------------------------------------------------- data parallel

@@ -108,16 +108,22 @@ def _write(path: str, exported: export.Exported) -> None:
 
 
 def cached_lower(fn: Callable, name: str, args: Sequence[Any], result: Any, directory: str,
-                 donate_first: bool = False) -> "CachedLowered":
+                 donate_first: bool = False, in_shardings: Optional[Sequence[Any]] = None,
+                 out_shardings: Any = None) -> "CachedLowered":
     """`fn` lowered for arguments shaped like `args`, its traced program read from `directory`
     if an earlier process left it there, else traced now and stored there. `result` has the
     tree structure of what `fn` returns (e.g. the first argument, for a step function);
-    `donate_first` donates the first argument's buffers. As `jax.jit(fn).lower`, this part
-    holds Python's lock and `compile` does not: a thread can compile one program while the
+    `donate_first` donates the first argument's buffers; `in_shardings` (one tree per argument)
+    and `out_shardings` (one tree), prefixes of `args` and `result` as `jax.jit`'s, place the
+    program on several devices (they are part of the file's key). As `jax.jit(fn).lower`, this
+    part holds Python's lock and `compile` does not: a thread can compile one program while the
     caller traces the next."""
     avals = jax.tree_util.tree_map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), list(args))
     leaves, treedef = jax.tree_util.tree_flatten(avals)
     result_tree = jax.tree_util.tree_structure(result)
+    placement = {} if in_shardings is None else dict(
+        in_shardings=tuple(_per_leaf(list(in_shardings), avals)),
+        out_shardings=_per_leaf(out_shardings, result))
 
     def flat(*leaves):
         out, out_tree = jax.tree_util.tree_flatten(fn(*jax.tree_util.tree_unflatten(treedef,
@@ -126,18 +132,26 @@ def cached_lower(fn: Callable, name: str, args: Sequence[Any], result: Any, dire
             raise ValueError(f"{name}: returns {out_tree}, stated {result_tree}")
         return out
 
-    path = os.path.join(directory, program_file(name, avals))
+    path = os.path.join(directory, program_file(f"{name} {placement!r}", avals))
     exported = _read(path)
     if exported is None:
-        exported = export.export(jax.jit(flat))(*leaves)
+        exported = export.export(jax.jit(flat, **placement))(*leaves)
         try:
             _write(path, exported)
         except OSError as error:  # a full or read-only disk: the next process traces again
             warnings.warn(f"cached program {path}: not written ({error.strerror})",
                           stacklevel=2)
     donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
-    return CachedLowered(jax.jit(exported.call, donate_argnums=donated).lower(*leaves),
-                         result_tree)
+    return CachedLowered(jax.jit(exported.call, donate_argnums=donated, **placement).lower(
+        *leaves), result_tree)
+
+
+def _per_leaf(shardings: Any, tree: Any) -> list:
+    """`shardings`, a tree of shardings that is a prefix of `tree`, as one sharding per leaf of
+    `tree` (flattened in its order)."""
+    return jax.tree_util.tree_leaves(jax.tree_util.tree_map(
+        lambda sharding, part: [sharding] * len(jax.tree_util.tree_leaves(part)), shardings,
+        tree, is_leaf=lambda x: isinstance(x, jax.sharding.Sharding)))
 
 
 class CachedLowered:

@@ -29,7 +29,7 @@ import envs
 from sac_jax import hyperparams, memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
-from sac_jax.parallel import over_seed_axis, seeds_program
+from sac_jax.parallel import seed_devices, seed_mapping, seeds_program
 from sac_jax.position import Position
 from sac_jax.program_cache import cached_lower
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts, non_finite_fields
@@ -167,11 +167,11 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     """(parts, compiled vmapped init, `Chunk` of the compiled vmapped `advance` and `evaluate`,
     compiled `_finite_check` of the state's `SACState`, the state's sharding) for `seeds` seeds
     of `config` (with the hyperparameters `swept` traced, one value per seed: `init(keys,
-    {name: (seeds,)})`), the seeds split over the local devices when there are several and
-    they divide `seeds` (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later
+    {name: (seeds,)})`), the seeds split over the local devices that divide them
+    (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later
     runs of the same shapes in this process neither trace nor compile again; other processes
-    find the compiled programs in the persistent compilation cache and, on one device, the
-    traced ones in `sac_jax.program_cache`."""
+    find the compiled programs in the persistent compilation cache and the traced ones in
+    `sac_jax.program_cache`."""
     parts = make_train_parts(config)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
     values = {name: jax.ShapeDtypeStruct((seeds,), jnp.asarray(0.0).dtype) for name in swept}
@@ -186,18 +186,18 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     with concurrent.futures.ThreadPoolExecutor(len(programs) + 2) as pool:
         compiled = []
         for name, part, axes, args in programs:
-            if directory is None or len(jax.local_devices()) > 1:
-                lowered = seeds_program(part, seeds, (axes,), axes, donate=True).lower(args)
+            mapped, placement = seed_mapping(part, seeds, (axes,), axes)
+            if directory is None:
+                lowered = jax.jit(mapped, donate_argnums=0, **placement).lower(args)
             else:
-                lowered = cached_lower(over_seed_axis(part, seeds, (axes,), axes),
-                                       f"{name} {config!r}", [args], args, directory,
-                                       donate_first=True)
+                lowered = cached_lower(mapped, f"{name} {config!r}", [args], args, directory,
+                                       donate_first=True, **placement)
             compiled.append(pool.submit(lowered.compile, compiler_options=options))
+            if name == "advance":  # where the state lives: split as its arguments are
+                sharding = placement["in_shardings"][0] if placement else jax.local_devices()[0]
         init = pool.submit(init.compile, compiler_options=options)
         finite = pool.submit(jax.jit(_finite_check).lower(state.sac).compile)
         advance, evaluate = (program.result() for program in compiled)
-        sharding = (advance.input_shardings[0][0] if hasattr(advance, "input_shardings")
-                    else jax.local_devices()[0])
         return parts, init.result(), Chunk(advance, evaluate), finite.result(), sharding
 
 
@@ -360,7 +360,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     summary = dict(run_summary(config, metrics, points, position,
                                jax.device_get(runner.delivered.env_steps),
                                jax.device_get(runner.stopped), model),
-                   seeds=seeds, status=status, message=message,
+                   seeds=seeds, seed_devices=len(seed_devices(seeds)), status=status,
+                   message=message,
                    non_finite_at_step=[position.non_finite.get(r) for r in range(seeds)])
     return RunResult(runner, metrics, points, status, message, position, summary)
 

@@ -51,10 +51,11 @@ from typing import Annotated, Dict, List, Literal, Optional, Sequence, Tuple  # 
 import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
-from sac_jax import hyperparams, memory, metric_writers, run_checkpoint, run_dir, tracking  # noqa: E402
+from sac_jax import (hyperparams, memory, metric_writers, parallel, run_checkpoint,  # noqa: E402
+                     run_dir, tracking)
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
-                         check_resume_flags, fail, parse_with_preset, progress_line,
-                         run_main, write_results)
+                         check_resume_flags, device_split, fail, parse_with_preset,
+                         progress_line, run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
@@ -263,7 +264,7 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
              if program.settings else _describe({k: v for k, v in
                                                  sweep["points"][program.indices[0]].items()}))
     print(f"program {i + 1}/{count} ({'resuming, ' if resume else ''}{swept}): "
-          f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs, "
+          f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs{device_split(runs)}, "
           f"{program.config.run_steps} steps each; {fits} -> {path}", flush=True)
     history = evaluation_points(program.config, resume[0]) if resume else []
     tensorboard = metric_writers.TensorBoard(path, history)
@@ -466,4 +467,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    parallel.cpu_device_per_core()  # a CPU's seeds split over its cores
     run_main(main)

@@ -43,12 +43,13 @@ import tyro  # noqa: E402
 import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax import memory, metric_writers, run_checkpoint, run_dir, tracking  # noqa: E402
+from sac_jax import (memory, metric_writers, parallel, run_checkpoint, run_dir,  # noqa: E402
+                     tracking)
 from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
                          run_training)
 from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
-                         check_resume_flags, fail, parse_with_preset, progress_line,
-                         run_main, write_results)
+                         check_resume_flags, device_split, fail, parse_with_preset,
+                         progress_line, run_main, write_results)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -59,8 +60,8 @@ class TrainArgs:
     """Base configuration; each SACConfig flag below overrides one of its fields (the defaults
     shown are this preset's)."""
     seeds: int = 1
-    """Seeds trained at once in one vmapped program (split over the local devices when their
-    number divides it)."""
+    """Seeds trained at once in one vmapped program, split into equal groups over the local
+    devices (on a CPU, one device per core: `sac_jax.parallel.cpu_device_per_core`)."""
     seed: int = 0
     """PRNG seed of the run; each seed's key is split from it."""
     out: Optional[str] = None
@@ -194,8 +195,8 @@ def main(argv=None) -> int:
               f"is confirmed at {config.stop_at:g})" if config.stop_when_solved
               else f"{config.run_steps} steps each")
     print(f"{'resuming' if resume else 'preset'} {info.preset} on {config.env}: {seeds} "
-          f"seed(s), {budget}, {config.num_envs} envs, {config.updates_per_step} "
-          f"updates/iteration; {fits} -> {out}", flush=True)
+          f"seed(s){device_split(seeds)}, {budget}, {config.num_envs} envs, "
+          f"{config.updates_per_step} updates/iteration; {fits} -> {out}", flush=True)
     history = evaluation_points(config, resume[0]) if resume else []  # the points done
     tensorboard = metric_writers.TensorBoard(out, history)
     wandb_run = tracking.follow(out, dict(dataclasses.asdict(config), **info.to_json()), history)
@@ -284,4 +285,5 @@ def _kept(out: str) -> str:
 
 
 if __name__ == "__main__":
+    parallel.cpu_device_per_core()  # a CPU's seeds split over its cores
     run_main(main)

@@ -18,7 +18,9 @@ and the reported metrics stay float32 (`make_train` casts them). "learning" runs
 from __future__ import annotations
 
 import json
+import os
 import sys
+import tempfile
 
 import jax
 import jax.numpy as jnp
@@ -30,6 +32,7 @@ import sac_jax
 from sac_jax.train import make_train_parts
 from sac_jax import parallel, selection
 from sac_jax.compilation_cache import enable_compilation_cache
+from sac_jax.program_cache import cached_lower
 
 # Pendulum-v1 shapes (O = 3, A = 1), global batch of 32. v2 with CleanRL's policy delay of 2:
 # the compared update is the 4th, which runs the actor block (2 actor and temperature steps)
@@ -347,8 +350,36 @@ def check_learning() -> dict:
             "finite_params": bool(np.isfinite(max_abs(params)))}
 
 
+def check_cached() -> dict:
+    """A program of 4 seeds split over the 2 devices (`parallel.seed_mapping`) through
+    `cached_lower`, twice into one directory (the second read back): how often it was traced,
+    the files written, whether both give exactly what `seeds_program` gives, and how many
+    devices hold the result's seed axis."""
+    calls = []
+
+    def step(state):
+        calls.append(1)  # runs only while tracing
+        return {"x": state["x"] * 2.0 + state["count"], "count": state["count"] + 1}
+
+    axes = {"x": 0, "count": None}
+    state = {"x": jnp.arange(12.0).reshape(4, 3), "count": jnp.float32(1.0)}
+    expected = parallel.seeds_program(step, 4, (axes,), axes)(state)
+    with tempfile.TemporaryDirectory() as directory:
+        mapped, placement = parallel.seed_mapping(step, 4, (axes,), axes)
+        traced = len(calls)
+        outs = [cached_lower(mapped, "step", [state], state, directory, **placement).compile()(
+            state) for _ in range(2)]
+        files = len(os.listdir(directory))
+    return {"traces": len(calls) - traced, "files": files,
+            "equal": [all(np.array_equal(a, b) for a, b in zip(
+                jax.tree_util.tree_leaves(out), jax.tree_util.tree_leaves(expected)))
+                for out in outs],
+            "devices": [len(out["x"].sharding.device_set) for out in outs]}
+
+
 CHECKS = {"updates": check_updates, "seeds": check_seeds, "separate": check_separate,
-          "settings": check_settings, "one_device": check_one_device, "learning": check_learning}
+          "settings": check_settings, "one_device": check_one_device, "learning": check_learning,
+          "cached": check_cached}
 FLOAT64_CHECKS = ("updates", "seeds", "separate", "settings", "one_device")
 
 

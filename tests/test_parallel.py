@@ -4,7 +4,10 @@ comparisons of two programs with the learner state in float64 (JAX_ENABLE_X64=1 
 session fixture `float64_checks` of conftest.py, shared with test_train.py): a data-parallel update equals the single-device update on the same global batch and noise, and
 fails to without the averaging; seeds sharded over devices equal the unsharded vmap; a
 one-device mesh reproduces `make_train`; a data-parallel run learns Pendulum-v1. Without
-devices: the one-seed program gives what the vmap gives; configs and meshes are checked."""
+devices: the one-seed program gives what the vmap gives; configs and meshes are checked; seeds
+split into equal groups; scripts' one CPU device per core (in subprocesses)."""
+
+import os
 
 import jax
 import jax.numpy as jnp
@@ -13,6 +16,7 @@ import pytest
 
 from sac_jax import PRESETS, parallel
 from tests.parallel_checks import LEARNER_BOUND, METRIC_ULPS, run_parallel_checks
+from tests.subprocess_json import run_json
 
 
 @pytest.fixture(scope="module")
@@ -132,3 +136,27 @@ def test_a_mesh_of_several_axes_is_rejected():
         parallel.make_data_parallel_parts(PRESETS["fast"], mesh)
     with pytest.raises(ValueError, match="exactly one axis"):
         parallel.over_seeds(lambda key: key, mesh)
+
+
+def test_seeds_split_into_the_most_equal_groups_the_devices_allow():
+    devices = ["d0", "d1", "d2", "d3"]
+    assert parallel.seed_devices(16, devices) == devices
+    assert parallel.seed_devices(6, devices) == ["d0", "d1", "d2"]
+    assert parallel.seed_devices(2, devices) == ["d0", "d1"]
+    assert parallel.seed_devices(7, devices) == ["d0"]
+    assert parallel.seed_devices(1, devices) == ["d0"]
+
+
+CPU_DEVICES = ("import json, sys, jax; from sac_jax import parallel; "
+               "sys.argv[1] == 'late' and jax.devices(); parallel.cpu_device_per_core(); "
+               "print(json.dumps(len(jax.devices())))")
+
+
+@pytest.mark.parametrize("when, env, expected", [
+    ("early", {}, len(os.sched_getaffinity(0))),
+    ("late", {}, 1),  # the backends had started: their devices stay
+    ("early", {"XLA_FLAGS": "--xla_force_host_platform_device_count=3"}, 3),
+    ("early", {"JAX_NUM_CPU_DEVICES": "1"}, 1)])
+def test_scripts_make_one_cpu_device_per_core_unless_a_count_is_set(when, env, expected):
+    env = {"JAX_NUM_CPU_DEVICES": "-1", "JAX_PLATFORMS": "cpu", **env}
+    assert run_json(["-c", CPU_DEVICES, when], **env) == expected

@@ -1,5 +1,6 @@
 """sac_jax.program_cache: a traced program is stored once and read back by later calls without
-tracing, gives what `jax.jit` gives, donates when asked, and a damaged file is traced again."""
+tracing, gives what `jax.jit` gives, donates when asked, and a damaged file is traced again; a
+program split over devices is stored and read back too."""
 
 import os
 
@@ -10,6 +11,7 @@ import pytest
 
 from sac_jax.program_cache import cached_lower, program_file
 from sac_jax.replay_buffer import Transition
+from tests.parallel_checks import run_parallel_checks
 
 
 def _step_counting_traces(calls):
@@ -98,3 +100,10 @@ def test_a_file_with_flipped_bytes_is_traced_again_with_one_warning(tmp_path):
         program = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     assert len(calls) == 2 and path.read_bytes() != bytes(data)
     np.testing.assert_array_equal(program(state, scale)["x"], jax.jit(step)(state, scale)["x"])
+
+
+def test_a_program_split_over_devices_is_stored_and_read_back():
+    """On 2 forced CPU devices (tests/parallel_checks.py "cached"): traced once, one file, both
+    calls give exactly what `seeds_program` gives, each result split over both devices."""
+    check = run_parallel_checks("cached")["cached"]
+    assert check == {"traces": 1, "files": 1, "equal": [True, True], "devices": [2, 2]}
