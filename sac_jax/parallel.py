@@ -136,11 +136,11 @@ def cpu_device_per_core() -> None:
     """Makes JAX's CPU backend one device per CPU core this process may use
     (`jax_num_cpu_devices`), so that `seeds_program` runs the seed groups of a CPU run on the
     cores at once. XLA's CPU runtime keeps SAC's small layers mostly on one thread: 16 seeds of
-    rejax's Pendulum-v1 configuration (64 wide, batch 256) trained 10k steps in 116.9 s on one
-    CPU device and in 54.7 s on two (2 cores, `scripts/train.py`, BENCHMARKS.md). Takes effect
-    only before JAX starts its backends (the first array or device query); it leaves a count
-    set already by $JAX_NUM_CPU_DEVICES or XLA_FLAGS' --xla_force_host_platform_device_count.
-    Scripts call it; a library import does not."""
+    rejax's Pendulum-v1 configuration (64 wide, batch 256, 10k steps) trained in 58.6 s on two
+    CPU devices against 116.0 s for the same program on one (2 cores, BENCHMARKS.md "rejax").
+    Takes effect only before JAX starts its backends (the first array or device query); it
+    leaves a count set already by $JAX_NUM_CPU_DEVICES or XLA_FLAGS'
+    --xla_force_host_platform_device_count. Scripts call it; a library import does not."""
     if (jax.config.jax_num_cpu_devices != -1
             or "xla_force_host_platform_device_count" in os.environ.get("XLA_FLAGS", "")):
         return
