@@ -167,10 +167,10 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     """(parts, compiled vmapped init, `Chunk` of the compiled vmapped `advance` and `evaluate`,
     compiled `_finite_check` of the state's `SACState`, the state's sharding) for `seeds` seeds
     of `config` (with the hyperparameters `swept` traced, one value per seed: `init(keys,
-    {name: (seeds,)})`), the seeds split over the local devices that divide them
-    (`sac_jax.parallel.seeds_program`). Kept per (config, seeds), so later
-    runs of the same shapes in this process neither trace nor compile again; other processes
-    find the compiled programs in the persistent compilation cache and the traced ones in
+    {name: (seeds,)})`), the seeds split into equal groups over the local devices
+    (`sac_jax.parallel.seed_devices`). Kept per (config, seeds), so later runs of the same
+    shapes in this process neither trace nor compile again; other processes find the compiled
+    programs in the persistent compilation cache and the traced ones in
     `sac_jax.program_cache`."""
     parts = make_train_parts(config)
     keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)

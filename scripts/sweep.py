@@ -264,8 +264,9 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
              if program.settings else _describe({k: v for k, v in
                                                  sweep["points"][program.indices[0]].items()}))
     print(f"program {i + 1}/{count} ({'resuming, ' if resume else ''}{swept}): "
-          f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs{device_split(runs)}, "
-          f"{program.config.run_steps} steps each; {fits} -> {path}", flush=True)
+          f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs"
+          f"{device_split(runs)}, {program.config.run_steps} steps each; {fits} -> {path}",
+          flush=True)
     history = evaluation_points(program.config, resume[0]) if resume else []
     tensorboard = metric_writers.TensorBoard(path, history)
     wandb_run = tracking.follow(path, dict(
