@@ -10,8 +10,12 @@ Ours, with the same numbers (issue 28's command):
 
 measured two ways for each `--seeds` count:
 * program: `jax.jit(make_train(config))` (vmapped over seeds), compile time and the median run
-  time of `--repeats` calls, as rejax's; and the same program evaluating at its end only
-  (`ONE_POINT`), whose difference gives the share of the run its 20 evaluations take;
+  time of `--repeats` calls, as rejax's; and the share of that run its 20 evaluation points
+  take: 20 times the median of `--repeats` timings of one point through the script's own
+  compiled `evaluate` (`sac_jax.run.compiled_program`), alone, on the state at the first point.
+  (Earlier this was the difference from the same program evaluating at its end only; on a CPU
+  whose runs spread by ±15 % that difference of two single runs gave 5-20 % from run to run,
+  while one point of 25 episodes takes milliseconds.)
 * script: `python scripts/train.py ... --seeds N` in a subprocess with a fresh compilation cache
   (cold) and again with it filled (warm): process wall time, and the summary's `run_s` (training
   after compilation), the time that issue 28 puts against the program's run time. On a CPU the
@@ -44,11 +48,13 @@ import sys
 import tempfile
 import time
 
+import jax
 import numpy as np
 
 from benchmarks.provenance import provenance, result_name, write_result
 from benchmarks.rejax_side import timed
 from sac_jax.presets import PRESETS
+from sac_jax.run import Chunk, compiled_program
 from sac_jax.train import make_train, make_train_parts
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -62,10 +68,6 @@ CONFIG = PRESETS["fast"].replace(
     stop_when_solved=False)
 
 
-ONE_POINT = CONFIG.replace(eval_every=9_500)
-"""CONFIG evaluated at its end only: the same 9,756 iterations, one evaluation point."""
-
-
 def program(seeds: int, repeats: int, config=CONFIG) -> dict:
     compile_s, times, (_, outputs) = timed(make_train(config), seeds, repeats)
     delivered = np.asarray(outputs["delivered_return"]).reshape(seeds, -1)
@@ -74,6 +76,23 @@ def program(seeds: int, repeats: int, config=CONFIG) -> dict:
                 eval_steps=[int(s) for s in np.asarray(outputs["env_steps"]).reshape(seeds, -1)[0]],
                 delivered_mean=[round(float(r), 1) for r in delivered.mean(0)],
                 final_per_seed=[round(float(r), 1) for r in delivered[:, -1]])
+
+
+def evaluation_s(seeds: int, repeats: int) -> float:
+    """Median seconds of one evaluation point of `seeds` seeds through the script's compiled
+    `evaluate`, timed alone on the state at the first point (a fresh copy each call: the
+    program consumes its argument)."""
+    _, init, chunk, _, _ = compiled_program(CONFIG, seeds)
+    runner = init(jax.random.split(jax.random.key(0), seeds))
+    while int(runner.iteration) < CONFIG.prefill_iterations + CONFIG.iterations_per_eval:
+        runner = chunk.advance(runner)
+    state, times = Chunk.evaluated(runner), []
+    for _ in range(repeats):
+        copy = jax.block_until_ready(jax.tree_util.tree_map(lambda x: x.copy(), state))
+        start = time.perf_counter()
+        jax.block_until_ready(chunk.evaluate(copy))
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
 
 
 def script(seeds: int, cache_dir: str) -> dict:
@@ -118,13 +137,13 @@ def main() -> None:
         n = run["seeds"]
         ours = program(n, args.repeats)
         points = len(ours["eval_steps"])
-        # the share of the run its evaluations take: the 19 points fewer, scaled to all 20
-        evaluation_share = ((ours["run_s"] - program(n, args.repeats, ONE_POINT)["run_s"])
-                            / ours["run_s"] * points / (points - 1))
+        point_s = evaluation_s(n, max(args.repeats, 5))
+        evaluation_share = points * point_s / ours["run_s"]
         with tempfile.TemporaryDirectory() as cache:
             cold, warm = script(n, cache), script(n, cache)
         row = dict(seeds=n, rejax=run, program=ours, script_cold=cold, script_warm=warm,
                    evaluation_share=round(evaluation_share, 3),
+                   evaluation_point_s=round(point_s, 5),
                    script_over_program=round(warm["run_s"] / ours["run_s"], 3),
                    rejax_over_program=round(run["run_s"] / ours["run_s"], 3),
                    rejax_over_script_to_result_cold=round(

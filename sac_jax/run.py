@@ -239,8 +239,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  should_stop: Optional[Callable[[], bool]] = None,
                  started: Optional[float] = None, check_memory: bool = True,
                  stop_on_non_finite: bool = True, stop_grace_s: float = 10.0) -> RunResult:
-    """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split over the
-    local devices when they divide `seeds`) driven one chunk at a time. With
+    """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split into equal
+    groups over the local devices, `sac_jax.parallel.seed_devices`) driven one chunk at a time. With
     `config.stop_when_solved` the run ends as FINISHED once every seed has stopped.
 
     settings: {name: [value per setting]} of hyperparameters (`sac_jax.hyperparams.NAMES`) to
