@@ -68,8 +68,8 @@ CONFIG = PRESETS["fast"].replace(
     stop_when_solved=False)
 
 
-def program(seeds: int, repeats: int, config=CONFIG) -> dict:
-    compile_s, times, (_, outputs) = timed(make_train(config), seeds, repeats)
+def program(seeds: int, repeats: int) -> dict:
+    compile_s, times, (_, outputs) = timed(make_train(CONFIG), seeds, repeats)
     delivered = np.asarray(outputs["delivered_return"]).reshape(seeds, -1)
     return dict(compile_s=round(compile_s, 3), run_s=round(statistics.median(times), 3),
                 run_times_s=[round(t, 3) for t in times],
