@@ -136,8 +136,8 @@ def cpu_device_per_core() -> None:
     """Makes JAX's CPU backend one device per CPU core this process may use
     (`jax_num_cpu_devices`), so that `seeds_program` runs the seed groups of a CPU run on the
     cores at once. XLA's CPU runtime keeps SAC's small layers mostly on one thread: 16 seeds of
-    rejax's Pendulum-v1 configuration (64 wide, batch 256, 10k steps) trained in 58.6 s on two
-    CPU devices against 116.0 s for the same program on one (2 cores, BENCHMARKS.md "rejax").
+    rejax's Pendulum-v1 configuration (64 wide, batch 256, 10k steps) trained in 55.8 s on two
+    CPU devices against 95.9 s for the same program on one (2 cores, BENCHMARKS.md "rejax").
     Takes effect only before JAX starts its backends (the first array or device query); it
     leaves a count set already by $JAX_NUM_CPU_DEVICES or XLA_FLAGS'
     --xla_force_host_platform_device_count. Scripts call it; a library import does not."""
