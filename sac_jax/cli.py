@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import signal
 import sys
-from typing import TYPE_CHECKING, Literal, Optional, Sequence, Type, TypeVar
+from typing import TYPE_CHECKING, Literal, NoReturn, Optional, Sequence, Type, TypeVar
 
 import tyro
 from tyro import _errors
@@ -175,6 +175,17 @@ class StopRequest:
         self.signal = signum
         print(f"{signal.Signals(signum).name}: stopping after the current chunk; saving a "
               "checkpoint (again to stop at once)", file=sys.stderr, flush=True)
+
+    def leave_now(self, error: BaseException, then: str) -> NoReturn:
+        """After a second signal (`error` a KeyboardInterrupt) or a stop whose chunk did not
+        end in time (`sac_jax.run.DeviceBusy`): one 'error:' line ending in `then`, then
+        `LeaveNow` at once, because the device may still run the chunk, which an exiting
+        interpreter would wait for."""
+        name = signal.Signals(self.signal or signal.SIGINT).name
+        why = (f"{name} again: stopped at once" if isinstance(error, KeyboardInterrupt)
+               else f"{name}: {error}; stopped without it")
+        print(f"error: {why}; {then}", file=sys.stderr, flush=True)
+        raise LeaveNow(EXIT_CODES.get(self.signal, 130))
 
 
 def write_results(out: str, config, preset: str, result: RunResult) -> None:

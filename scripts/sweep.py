@@ -53,7 +53,7 @@ import tyro  # noqa: E402
 import sac_jax  # noqa: E402
 from sac_jax import (hyperparams, memory, metric_writers, parallel, run_checkpoint,  # noqa: E402
                      run_dir, tracking)
-from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
+from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, device_split, fail, parse_with_preset,
                          progress_line, run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
@@ -440,12 +440,7 @@ def main(argv=None) -> int:
                       f"--resume {out}", file=sys.stderr, flush=True)
                 return EXIT_CODES[stop.signal]
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
-        name = signal.Signals(stop.signal or signal.SIGINT).name
-        why = (f"{name}: {error}; stopped without it" if isinstance(error, DeviceBusy)
-               else f"{name} again: stopped at once")
-        print(f"error: {why}; continue with --resume {out}", file=sys.stderr, flush=True)
-        # at once: the device may still run the chunk, which an exiting interpreter awaits
-        raise LeaveNow(EXIT_CODES.get(stop.signal, 130))
+        stop.leave_now(error, f"continue with --resume {out}")
     except ValueError as error:  # a program's checkpoint that cannot be read back
         return fail(error, 2)
     finally:

@@ -47,7 +47,7 @@ from sac_jax import (memory, metric_writers, parallel, run_checkpoint, run_dir, 
                      tracking)
 from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
                          run_training)
-from sac_jax.cli import (EXIT_CODES, LeaveNow, PresetName, StopRequest,  # noqa: E402
+from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, device_split, fail, parse_with_preset,
                          progress_line, run_main, write_results)
 
@@ -237,12 +237,7 @@ def main(argv=None) -> int:
               file=sys.stderr, flush=True)
         return 1
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
-        name = signal.Signals(stop.signal or signal.SIGINT).name
-        why = (f"{name}: {error}; stopped without it" if isinstance(error, DeviceBusy)
-               else f"{name} again: stopped at once")
-        print(f"error: {why}; {_kept(out)}", file=sys.stderr, flush=True)
-        # at once: the device may still run the chunk, which an exiting interpreter awaits
-        raise LeaveNow(EXIT_CODES.get(stop.signal, 130))
+        stop.leave_now(error, _kept(out))
     write_results(out, config, info.preset, result)
     code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
     if wandb_run is not None:

@@ -4,7 +4,9 @@ ways to damage their checkpoints, and the one-line-error check."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
+import shutil
 
 import jax
 import numpy as np
@@ -21,6 +23,19 @@ SMALL_RUN = ["--preset", "pendulum", "--total-steps", "4000", "--eval-every", "1
              "--actor-hidden", "32", "32", "--critic-hidden", "32", "32", "--seed", "3"]
 """scripts/train.py flags of a 4000-step Pendulum-v1 run with 32-wide networks, evaluated
 every 1000 steps: a run directory with points and checkpoints, quick to compile."""
+
+
+def copied_run(run_dir: str, tmp_path, name: str = "copy") -> str:
+    """A copy of the run directory `run_dir` at tmp_path/name, to damage or change."""
+    copy = str(tmp_path / name)
+    shutil.copytree(run_dir, copy)
+    return copy
+
+
+def checkpoint_header(step_dir: str) -> dict:
+    """The JSON metadata orbax keeps beside a checkpoint step's arrays."""
+    with open(os.path.join(step_dir, "meta", "metadata")) as f:
+        return json.load(f)
 
 
 def trained_pendulum(out: str) -> str:

@@ -1,13 +1,16 @@
 """sac_jax/cli.py: every kind of bad command line tyro reports becomes one line naming the flag
-and the value (UsageError), and good input parses as tyro parses it."""
+and the value (UsageError), and good input parses as tyro parses it; a stop at once says why in
+one line and leaves with the signal's exit code."""
 
 import dataclasses
+import signal
 from typing import Literal, Optional, Tuple
 
 import pytest
 import tyro
 
-from sac_jax.cli import UsageError, parse, positive
+from sac_jax.cli import LeaveNow, StopRequest, UsageError, parse, positive
+from sac_jax.run import DeviceBusy
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,3 +56,17 @@ def test_positive_rejects_bools_and_non_positive():
         with pytest.raises(ValueError, match="must be a positive integer"):
             positive("n", value)
     positive("n", 1)
+
+
+@pytest.mark.parametrize("signum, error, why, code", [
+    (signal.SIGINT, KeyboardInterrupt(), "SIGINT again: stopped at once", 130),
+    (signal.SIGTERM, DeviceBusy("still running a chunk 10 s after the stop"),
+     "SIGTERM: still running a chunk 10 s after the stop; stopped without it", 143)])
+def test_a_stop_at_once_says_why_in_one_line_and_leaves_with_the_signals_code(
+        capsys, signum, error, why, code):
+    stop = StopRequest()
+    stop(signum, None)  # the first signal asks for a stop after the chunk
+    with pytest.raises(LeaveNow) as leave:
+        stop.leave_now(error, "continue with --resume out")
+    assert leave.value.code == code
+    assert capsys.readouterr().err.splitlines()[-1] == f"error: {why}; continue with --resume out"

@@ -38,8 +38,8 @@ from sac_jax.position import Position
 from scripts import evaluate as evaluate_script
 from scripts import render as render_script
 from scripts import train as train_script
-from tests.saved_runs import (SMALL_RUN, damage_checkpoint, fails_in_one_line,
-                              newest_checkpoint, two_checkpoints)
+from tests.saved_runs import (SMALL_RUN, checkpoint_header, copied_run, damage_checkpoint,
+                              fails_in_one_line, newest_checkpoint, two_checkpoints)
 from tests.signals import interrupted_main
 
 AS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
@@ -51,24 +51,13 @@ def run(tmp_path_factory):
     return two_checkpoints(str(tmp_path_factory.mktemp("faults") / "run"))
 
 
-def _copy(run_dir, tmp_path, name="copy"):
-    copy = str(tmp_path / name)
-    shutil.copytree(run_dir, copy)
-    return copy
-
-
-def _header(step_dir):
-    with open(os.path.join(step_dir, "meta", "metadata")) as f:
-        return json.load(f)
-
-
 # ---------------------------------------------------------------- damaged checkpoints
 @pytest.mark.parametrize("how, message", [("flip", r"damaged \(array \d+ does not match"),
                                           ("truncate", "unreadable|damaged"),
                                           ("garbage", "unreadable")])
 def test_a_damaged_checkpoint_is_refused_naming_it_and_the_intact_step_before(
         run, tmp_path, how, message):
-    damaged = _copy(run[0], tmp_path)
+    damaged = copied_run(run[0], tmp_path)
     damage_checkpoint(damaged, how)
     where = newest_checkpoint(damaged)
     with pytest.raises(checkpoint.CheckpointError, match=message) as error:
@@ -91,7 +80,7 @@ def test_a_damaged_checkpoint_is_refused_naming_it_and_the_intact_step_before(
 @pytest.mark.parametrize("how", ["flip", "garbage"])
 def test_each_script_refuses_a_damaged_checkpoint_in_one_line_with_exit_2(
         run, tmp_path, capsys, script, argv, how):
-    damaged = _copy(run[0], tmp_path)
+    damaged = copied_run(run[0], tmp_path)
     damage_checkpoint(damaged, how)
     before = sorted(os.listdir(tmp_path))
     argv = [str(tmp_path / "x.gif") if a == "OUT" else a for a in argv]
@@ -102,7 +91,7 @@ def test_each_script_refuses_a_damaged_checkpoint_in_one_line_with_exit_2(
 
 
 def test_a_resume_from_the_intact_step_asked_for_trains_on(run, tmp_path, capsys):
-    damaged = _copy(run[0], tmp_path)
+    damaged = copied_run(run[0], tmp_path)
     damage_checkpoint(damaged, "flip")
     assert train_script.main(["--resume", damaged, "--resume-step", "0"]) == 0, (
         capsys.readouterr().err)
@@ -110,9 +99,9 @@ def test_a_resume_from_the_intact_step_asked_for_trains_on(run, tmp_path, capsys
 
 
 def test_a_position_record_that_cannot_be_read_is_unexpected_metadata(run, tmp_path):
-    copy = _copy(run[0], tmp_path)
+    copy = copied_run(run[0], tmp_path)
     path = os.path.join(newest_checkpoint(copy), "meta", "metadata")
-    header = _header(newest_checkpoint(copy))
+    header = checkpoint_header(newest_checkpoint(copy))
     header["meta"]["position"]["walls"] = {"2000": "soon"}
     with open(path, "w") as f:
         json.dump(header, f)
@@ -123,7 +112,7 @@ def test_a_position_record_that_cannot_be_read_is_unexpected_metadata(run, tmp_p
 def test_a_step_left_half_written_is_neither_listed_nor_kept(run, tmp_path):
     """A process killed while orbax writes leaves `<step>.orbax-checkpoint-tmp`: it is not a
     step, and the next write removes it."""
-    copy = _copy(run[0], tmp_path)
+    copy = copied_run(run[0], tmp_path)
     partial = os.path.join(run_checkpoint.directory(copy), "900.orbax-checkpoint-tmp")
     shutil.copytree(newest_checkpoint(copy), partial)
     assert run_checkpoint.saved_steps(copy) == [0, 800]
@@ -358,7 +347,7 @@ def _files(path):
 def test_evaluate_writes_nothing(run, tmp_path, capsys):
     """evaluate.py has no output file: a run directory made read-only (which stops anyone but
     root) is evaluated, and every file in it and beside it is left as it was."""
-    path = _copy(run[0], tmp_path)
+    path = copied_run(run[0], tmp_path)
     before = _files(tmp_path)
     modes = {p: os.stat(p).st_mode
              for p in [path] + [os.path.join(tmp_path, name) for name in before]}

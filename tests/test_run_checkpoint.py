@@ -7,7 +7,6 @@ checkpoints, full disks and half-written steps: tests/test_faults.py.)"""
 import json
 import logging
 import os
-import shutil
 import threading
 
 import jax
@@ -16,7 +15,8 @@ import pytest
 
 from sac_jax import checkpoint, memory, run_checkpoint
 from sac_jax.position import Position
-from tests.saved_runs import newest_checkpoint, two_checkpoints
+from tests.saved_runs import (checkpoint_header, copied_run, newest_checkpoint,
+                              two_checkpoints)
 
 
 @pytest.fixture(scope="module")
@@ -35,17 +35,6 @@ def _assert_same(a, b):
         np.testing.assert_array_equal(x, y)
 
 
-def _copy(out, tmp_path, name="copy"):
-    copy = str(tmp_path / name)
-    shutil.copytree(out, copy)
-    return copy
-
-
-def _header(step_dir):
-    with open(os.path.join(step_dir, "meta", "metadata")) as f:
-        return json.load(f)
-
-
 def test_the_state_comes_back_bit_for_bit(run):
     out, saved = run
     _, info, loaded, position = run_checkpoint.load_checkpoint(out)
@@ -58,7 +47,7 @@ def test_the_state_comes_back_bit_for_bit(run):
 
 def test_only_the_filled_replay_slots_are_stored(run):
     out, saved = run
-    header = _header(newest_checkpoint(out))
+    header = checkpoint_header(newest_checkpoint(out))
     assert header["meta"]["buffer_filled"] == 40
     assert np.asarray(saved.buffer.data.obs).shape == (2, 4000, 3)
     shapes = [tuple(record["shape"]) for record in header["leaves"]]
@@ -85,7 +74,7 @@ def test_saving_at_new_fill_levels_compiles_nothing(run, tmp_path, caplog):
 
 def _stored_arrays(out, step):
     """The arrays of checkpoint `step` of `out`, read back without a template."""
-    header = _header(os.path.join(run_checkpoint.directory(out), str(step)))
+    header = checkpoint_header(os.path.join(run_checkpoint.directory(out), str(step)))
     template = [jax.ShapeDtypeStruct(r["shape"], np.dtype(r["dtype"])) for r in header["leaves"]]
     tree, meta, _ = checkpoint.load(run_checkpoint.directory(out), template, step)
     return tree, meta
@@ -233,9 +222,9 @@ def test_on_the_cpu_without_room_for_the_copy_a_save_writes_the_state_itself_in_
 
 @pytest.mark.parametrize("filled", [4001, -1, "40", None])
 def test_a_fill_level_that_does_not_fit_is_refused(run, tmp_path, filled):
-    copy = _copy(run[0], tmp_path)
+    copy = copied_run(run[0], tmp_path)
     path = os.path.join(newest_checkpoint(copy), "meta", "metadata")
-    header = _header(newest_checkpoint(copy))
+    header = checkpoint_header(newest_checkpoint(copy))
     header["meta"]["buffer_filled"] = filled
     with open(path, "w") as f:
         json.dump(header, f)
@@ -244,7 +233,7 @@ def test_a_fill_level_that_does_not_fit_is_refused(run, tmp_path, filled):
 
 
 def test_a_checkpoint_of_another_configuration_is_refused(run, tmp_path):
-    copy = _copy(run[0], tmp_path)
+    copy = copied_run(run[0], tmp_path)
     with open(os.path.join(copy, "config.json")) as f:
         config = json.load(f)
     with open(os.path.join(copy, "config.json"), "w") as f:
