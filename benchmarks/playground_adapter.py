@@ -18,6 +18,7 @@ Example: ``python -m benchmarks.playground_adapter --tasks CartpoleBalance --ste
 from __future__ import annotations
 
 import argparse
+import importlib
 import statistics
 import time
 
@@ -84,6 +85,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--name", default=None)
     args = parser.parse_args()
+    if "warp" in args.impl:  # before MJX, so that it loads its Warp backend (envs/_warp.py)
+        importlib.import_module("warp")
     source = provenance()
     rows = []
     print("| task | backend | raw steps/s | adapter steps/s | overhead | compile raw / adapter |")

@@ -33,7 +33,10 @@ __all__ = [
 def __getattr__(name: str):
     """Loads ``to_brax`` (and with it Brax) on first access, so ``import envs`` stays light."""
     if name == "to_brax":
-        from envs.brax_adapter import to_brax
+        from envs import _warp
+
+        with _warp.hidden():  # Brax imports MJX
+            from envs.brax_adapter import to_brax
 
         return to_brax
     raise AttributeError(f"module 'envs' has no attribute {name!r}")

@@ -1,13 +1,14 @@
-"""Quiet import of MuJoCo XLA (MJX).
+"""Quiet, light import of MuJoCo XLA (MJX).
 
 ``from mujoco import mjx`` prints "Failed to import warp..." on stdout when the optional
-Warp backend is missing.  Every module of :mod:`envs` imports ``mjx`` from here, so that
-importing :mod:`envs` prints nothing.
+Warp backend is missing, and imports Warp (seconds) where it is installed. Every module of
+:mod:`envs` imports ``mjx`` from here, with Warp hidden (`envs._warp.hidden`), so that
+importing an MJX environment prints nothing and loads no Warp.
 """
 
-import contextlib
 import importlib.metadata
-import io
+
+from envs import _warp
 
 WRITTEN_FOR = {"mujoco": "4.0.0", "mujoco-mjx": "3.17.0"}
 """The versions whose private MJX modules (``mujoco.mjx._src``) envs/ was written and tested
@@ -27,7 +28,7 @@ def check_versions(installed=None) -> None:
 
 check_versions()
 
-with contextlib.redirect_stdout(io.StringIO()):
+with _warp.hidden():
     from mujoco import mjx
     # MJX internals used by the single-forward RK4 step (envs.mjx_env.MjxEnv._rk4); the
     # project pins mujoco-mjx, so these private names are stable for it.

@@ -19,7 +19,7 @@ import contextlib
 import functools
 import io
 
-from envs import task_adapter
+from envs import _warp, task_adapter
 from envs.task_adapter import TaskAdapter
 
 PREFIX = "playground/"
@@ -47,18 +47,25 @@ def task_name(name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def _load(task: str, impl: str):
+    if impl == "warp":  # imported before MJX, which then loads its Warp backend
+        try:
+            import warp
+        except ImportError:
+            raise ValueError(f"{PREFIX + task} with impl='warp' needs MuJoCo Warp: "
+                             f"{INSTALL}") from None
+        if _warp.mjx_loaded_without_warp():
+            raise ValueError(f"{PREFIX + task} with impl='warp': this process has loaded MJX "
+                             "without Warp (for an MJX task built before); build Warp tasks "
+                             "in a process of their own")
+        if warp.config.log_level == warp.LOG_INFO:  # its default: a line per kernel module loaded
+            warp.config.log_level = warp.LOG_WARNING
     try:
         # quiet: without Warp, MJX and Playground print "Failed to import (mujoco_)warp"
-        with contextlib.redirect_stdout(io.StringIO()):
+        with _warp.hidden() if impl == "jax" else contextlib.redirect_stdout(io.StringIO()):
             from mujoco_playground import registry
     except ImportError:
         raise ValueError(f"environment {PREFIX + task!r} needs MuJoCo Playground: "
                          f"{INSTALL}") from None
-    if impl == "warp":
-        import warp
-
-        if warp.config.log_level == warp.LOG_INFO:  # its default: a line per kernel module loaded
-            warp.config.log_level = warp.LOG_WARNING
     return registry.load(task, config_overrides={"impl": impl})
 
 

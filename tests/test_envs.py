@@ -227,11 +227,13 @@ def test_errors():
         env.step(env.reset(jax.random.key(0)), jnp.zeros(2))
 
 
-def test_import_and_mjx_build_print_nothing():
+def test_import_and_mjx_build_print_nothing_and_load_no_warp():
     """`import envs` leaves MJX unimported (a Pendulum-v1 run never needs it); building an MJX
-    environment imports it without MJX's "Failed to import warp" line."""
+    environment imports it without MJX's "Failed to import warp" line, and without Warp
+    where warp-lang is installed (`envs._warp`), leaving `import warp` to work afterwards."""
     code = ("import sys, envs; assert 'mujoco.mjx' not in sys.modules; "
-            "envs.make('InvertedPendulum-v5'); assert 'mujoco.mjx' in sys.modules")
+            "envs.make('InvertedPendulum-v5'); assert 'mujoco.mjx' in sys.modules; "
+            "assert 'warp' not in sys.modules, sys.modules['warp']")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout == ""

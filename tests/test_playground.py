@@ -98,14 +98,36 @@ def test_unknown_names_and_a_missing_playground_fail_in_one_line(monkeypatch):
                                  "Playground: pip install -e \".[playground]\"")
 
 
-def test_building_a_task_prints_nothing_where_warp_is_missing():
-    """Without Warp (as on a machine without the extra's GPU wheel), MJX and Playground print
-    "Failed to import (mujoco_)warp" on import; building a task keeps that out of the output."""
-    code = ("import sys; sys.modules['warp'] = None; import envs; "
-            "print(envs.make('playground/CartpoleBalance').observation_size)")
+def test_building_an_mjx_task_prints_nothing_and_loads_no_warp():
+    """MJX and Playground import Warp where it is installed, and print "Failed to import
+    (mujoco_)warp" where not; an MJX task (the default impl) is built with Warp hidden from
+    both (`envs._warp`), so neither happens: the output is the task's alone."""
+    code = ("import sys, envs; "
+            "print(envs.make('playground/CartpoleBalance').observation_size, "
+            "'warp' in sys.modules)")
     proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=300, check=True)
-    assert proc.stdout == "5\n"
+    assert proc.stdout == "5 False\n"
+
+
+@pytest.mark.parametrize("before, message", [
+    ("import sys; sys.modules['warp'] = None",
+     " needs MuJoCo Warp: pip install -e \".[playground]\""),
+    ("envs.make('InvertedPendulum-v5')",
+     ": this process has loaded MJX without Warp (for an MJX task built before); build Warp tasks "
+     "in a process of their own")])
+def test_a_warp_task_without_warp_is_refused_in_one_line(before, message):
+    """Without Warp installed, or once an MJX environment has loaded MJX without it (MJX loads
+    its Warp backend only if Warp is imported first, which a Warp task does), a Warp task is
+    refused in one line."""
+    if "InvertedPendulum" in before:
+        pytest.importorskip("warp")
+    code = f"import envs; {before}; envs.make('playground/CartpoleBalance', impl='warp')"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 1
+    assert proc.stderr.strip().splitlines()[-1] == (
+        f"ValueError: playground/CartpoleBalance with impl='warp'{message}")
 
 
 def test_a_warp_task_steps_without_a_line_per_kernel_module(tmp_path):
