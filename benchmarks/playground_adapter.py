@@ -85,7 +85,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--name", default=None)
     args = parser.parse_args()
-    if "warp" in args.impl:  # before MJX, so that it loads its Warp backend (envs/_warp.py)
+    if "warp" in args.impl:  # before MJX, so that it loads its Warp backend (envs/_lean_import.py)
         importlib.import_module("warp")
     source = provenance()
     rows = []

@@ -33,9 +33,9 @@ __all__ = [
 def __getattr__(name: str):
     """Loads ``to_brax`` (and with it Brax) on first access, so ``import envs`` stays light."""
     if name == "to_brax":
-        from envs import _warp
+        from envs import _lean_import
 
-        with _warp.hidden():  # Brax imports MJX
+        with _lean_import.without("warp"):  # Brax imports MJX
             from envs.brax_adapter import to_brax
 
         return to_brax

@@ -2,13 +2,13 @@
 
 ``from mujoco import mjx`` prints "Failed to import warp..." on stdout when the optional
 Warp backend is missing, and imports Warp (seconds) where it is installed. Every module of
-:mod:`envs` imports ``mjx`` from here, with Warp hidden (`envs._warp.hidden`), so that
+:mod:`envs` imports ``mjx`` from here, with Warp hidden (`envs._lean_import`), so that
 importing an MJX environment prints nothing and loads no Warp.
 """
 
 import importlib.metadata
 
-from envs import _warp
+from envs import _lean_import
 
 WRITTEN_FOR = {"mujoco": "4.0.0", "mujoco-mjx": "3.17.0"}
 """The versions whose private MJX modules (``mujoco.mjx._src``) envs/ was written and tested
@@ -28,7 +28,7 @@ def check_versions(installed=None) -> None:
 
 check_versions()
 
-with _warp.hidden():
+with _lean_import.without("warp"):
     from mujoco import mjx
     # MJX internals used by the single-forward RK4 step (envs.mjx_env.MjxEnv._rk4); the
     # project pins mujoco-mjx, so these private names are stable for it.

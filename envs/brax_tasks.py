@@ -16,7 +16,7 @@ from __future__ import annotations
 import functools
 import warnings
 
-from envs import _warp, task_adapter
+from envs import _lean_import, task_adapter
 from envs.task_adapter import TaskAdapter
 
 PREFIX = "brax/"
@@ -38,7 +38,7 @@ def task_name(name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def _load(task: str):
-    with _warp.hidden():  # Brax's MJX pipeline steps without it
+    with _lean_import.without("warp"):  # Brax's MJX pipeline steps without it
         from brax import envs as brax_envs
     with warnings.catch_warnings():  # Brax's notice that its environments are unmaintained
         warnings.filterwarnings("ignore", "Brax System, piplines and environments")

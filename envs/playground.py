@@ -15,11 +15,9 @@ as the task's array.
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import io
 
-from envs import _warp, task_adapter
+from envs import _lean_import, task_adapter
 from envs.task_adapter import TaskAdapter
 
 PREFIX = "playground/"
@@ -53,15 +51,15 @@ def _load(task: str, impl: str):
         except ImportError:
             raise ValueError(f"{PREFIX + task} with impl='warp' needs MuJoCo Warp: "
                              f"{INSTALL}") from None
-        if _warp.mjx_loaded_without_warp():
+        if _lean_import.mjx_loaded_without_warp():
             raise ValueError(f"{PREFIX + task} with impl='warp': this process has loaded MJX "
                              "without Warp (for an MJX task built before); build Warp tasks "
                              "in a process of their own")
         if warp.config.log_level == warp.LOG_INFO:  # its default: a line per kernel module loaded
             warp.config.log_level = warp.LOG_WARNING
     try:
-        # quiet: without Warp, MJX and Playground print "Failed to import (mujoco_)warp"
-        with _warp.hidden() if impl == "jax" else contextlib.redirect_stdout(io.StringIO()):
+        # without PyTorch (for its RSL-RL wrapper) and, for an MJX task, without Warp
+        with _lean_import.without("torch", "warp"):  # Warp stays if imported above
             from mujoco_playground import registry
     except ImportError:
         raise ValueError(f"environment {PREFIX + task!r} needs MuJoCo Playground: "

@@ -230,7 +230,7 @@ def test_errors():
 def test_import_and_mjx_build_print_nothing_and_load_no_warp():
     """`import envs` leaves MJX unimported (a Pendulum-v1 run never needs it); building an MJX
     environment imports it without MJX's "Failed to import warp" line, and without Warp
-    where warp-lang is installed (`envs._warp`), leaving `import warp` to work afterwards."""
+    where warp-lang is installed (`envs._lean_import`), leaving `import warp` to work afterwards."""
     code = ("import sys, envs; assert 'mujoco.mjx' not in sys.modules; "
             "envs.make('InvertedPendulum-v5'); assert 'mujoco.mjx' in sys.modules; "
             "assert 'warp' not in sys.modules, sys.modules['warp']")

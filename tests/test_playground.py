@@ -98,16 +98,17 @@ def test_unknown_names_and_a_missing_playground_fail_in_one_line(monkeypatch):
                                  "Playground: pip install -e \".[playground]\"")
 
 
-def test_building_an_mjx_task_prints_nothing_and_loads_no_warp():
+def test_building_an_mjx_task_prints_nothing_and_loads_no_warp_or_torch():
     """MJX and Playground import Warp where it is installed, and print "Failed to import
-    (mujoco_)warp" where not; an MJX task (the default impl) is built with Warp hidden from
-    both (`envs._warp`), so neither happens: the output is the task's alone."""
+    (mujoco_)warp" where not; Playground imports PyTorch where installed. An MJX task (the
+    default impl) is built with both hidden (`envs._lean_import`), so none of that happens:
+    the output is the task's alone."""
     code = ("import sys, envs; "
             "print(envs.make('playground/CartpoleBalance').observation_size, "
-            "'warp' in sys.modules)")
+            "'warp' in sys.modules, 'torch' in sys.modules)")
     proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=300, check=True)
-    assert proc.stdout == "5 False\n"
+    assert proc.stdout == "5 False False\n"
 
 
 @pytest.mark.parametrize("before, message", [
