@@ -6,7 +6,7 @@ a tracked run holds what W&B wrote by then (it buffers its writes: a point may b
     python -m tests.killed_run STEP ARGS...     # ARGS: scripts/train.py's command line
 
 Run it in a process of its own (tests/test_train_script.py); its exit status is -9 when it was
-killed there, 3 if the point never reached the files, and scripts/train.py's own if
+killed there, 3 if the point never reached the files (or a tracked run's W&B run never started), and scripts/train.py's own if
 the run never came to STEP.
 """
 
@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import threading
 import time
 
 from sac_jax import run_checkpoint, tracking, wandb_records
@@ -42,14 +43,23 @@ def wandb_steps(run_dir_path: str) -> set:
 
 def kill_at_checkpoint(step: int, timeout_s: float = 60.0) -> None:
     """Makes `CheckpointWriter.save` of the evaluation point at `step` wait for that point in
-    the run directory's TensorBoard files, then SIGKILL this process before saving."""
+    the run directory's TensorBoard files (and, for a tracked run, for its W&B run to have
+    started, so that each process leaves a W&B log), then SIGKILL this process before saving."""
     save = run_checkpoint.CheckpointWriter.save
+    start = tracking.WandbRun._start
+    wandb_started = threading.Event()
+
+    def start_and_tell(run, *args):
+        start(run, *args)
+        wandb_started.set()
 
     def save_or_die(writer, runner, position):
         if max(position.walls, default=None) == step:
             events = os.path.join(writer._run_dir, "tensorboard")
             deadline = time.monotonic() + timeout_s
-            while step not in tensorboard_steps(events):
+            tracked = tracking.load_settings(writer._run_dir) is not None
+            while step not in tensorboard_steps(events) or (
+                    tracked and not wandb_started.is_set()):
                 if time.monotonic() > deadline:
                     os._exit(3)
                 time.sleep(0.05)
@@ -58,6 +68,7 @@ def kill_at_checkpoint(step: int, timeout_s: float = 60.0) -> None:
         return save(writer, runner, position)
 
     run_checkpoint.CheckpointWriter.save = save_or_die
+    tracking.WandbRun._start = start_and_tell
     run_checkpoint.MIN_INTERVAL_S = 0.0  # a checkpoint at every point
 
 
