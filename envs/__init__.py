@@ -35,7 +35,7 @@ def __getattr__(name: str):
     if name == "to_brax":
         from envs import _lean_import
 
-        with _lean_import.without("warp"):  # Brax imports MJX
+        with _lean_import.mjx_import():  # Brax imports MJX
             from envs.brax_adapter import to_brax
 
         return to_brax

@@ -28,7 +28,7 @@ def check_versions(installed=None) -> None:
 
 check_versions()
 
-with _lean_import.without("warp"):
+with _lean_import.mjx_import():
     from mujoco import mjx
     # MJX internals used by the single-forward RK4 step (envs.mjx_env.MjxEnv._rk4); the
     # project pins mujoco-mjx, so these private names are stable for it.

@@ -38,7 +38,7 @@ def task_name(name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def _load(task: str):
-    with _lean_import.without("warp"):  # Brax's MJX pipeline steps without it
+    with _lean_import.mjx_import():  # Brax's MJX pipeline steps without Warp
         from brax import envs as brax_envs
     with warnings.catch_warnings():  # Brax's notice that its environments are unmaintained
         warnings.filterwarnings("ignore", "Brax System, piplines and environments")

@@ -59,7 +59,7 @@ def _load(task: str, impl: str):
             warp.config.log_level = warp.LOG_WARNING
     try:
         # without PyTorch (for its RSL-RL wrapper) and, for an MJX task, without Warp
-        with _lean_import.without("torch", "warp"):  # Warp stays if imported above
+        with _lean_import.mjx_import("torch"):  # Warp stays if imported above
             from mujoco_playground import registry
     except ImportError:
         raise ValueError(f"environment {PREFIX + task!r} needs MuJoCo Playground: "

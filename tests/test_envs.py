@@ -239,6 +239,47 @@ def test_import_and_mjx_build_print_nothing_and_load_no_warp():
     assert out.stdout == ""
 
 
+MESH_ON_A_FLOOR = """<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0 0 1 0 0 0 1"/></asset>
+<worldbody><geom type="plane" size="1 1 1"/>
+<body pos="0 0 1"><freejoint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>"""
+
+
+def test_trimesh_is_imported_only_when_mjx_needs_it():
+    """Building an MJX environment leaves trimesh unimported (`envs._lean_import.deferred`);
+    a model whose mesh collides, put on the device, imports it: MJX's convex hull (the
+    tetrahedron's 4 vertices) is computed with the real `trimesh.Trimesh`."""
+    code = ("import sys, envs, mujoco; envs.make('InvertedPendulum-v5'); "
+            "assert 'trimesh' not in sys.modules, sys.modules['trimesh']; "
+            "from envs._mjx import mjx; from mujoco.mjx._src import mesh; "
+            f"m = mjx.put_model(mujoco.MjModel.from_xml_string({MESH_ON_A_FLOOR!r})); "
+            "import trimesh; assert mesh.trimesh.Trimesh is trimesh.Trimesh; "
+            "assert m._impl.mesh_convex[0].vert.shape == (4, 3), m._impl.mesh_convex")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-3000:]
+
+
+def test_a_deferred_module_is_the_real_one_at_first_use():
+    """`deferred`'s stand-in answers its placeholders without importing the module while open,
+    imports it at any other lookup, and leaves `import` to the real module afterwards."""
+    from envs import _lean_import
+
+    name = "json"  # imported already: nothing is deferred
+    with _lean_import.deferred(name, "dumps"):
+        assert sys.modules[name].dumps.__module__ == "json"
+    code = ("import sys; from envs import _lean_import; assert 'wave' not in sys.modules\n"
+            "with _lean_import.deferred('wave', 'Wave_read'):\n"
+            "    import wave\n"
+            "    placeholder = wave.Wave_read\n"
+            "    assert placeholder.__module__ == 'wave' and 'wave' in sys.modules\n"
+            "    assert type(sys.modules['wave']).__name__ == '_Deferred'\n"
+            "assert 'wave' not in sys.modules\n"
+            "assert wave.Wave_read is not placeholder and wave.open is sys.modules['wave'].open\n"
+            "import wave as real\n"
+            "assert wave.Wave_read is real.Wave_read and type(real).__name__ == 'module'")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-3000:]
+
+
 def test_another_mujoco_version_is_refused_in_one_line():
     from envs import _mjx
     _mjx.check_versions()  # the installed, pinned versions pass
