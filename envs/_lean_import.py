@@ -13,11 +13,13 @@ task here does:
 With both hidden, `python scripts/train.py --preset CartpoleBalance` (warm cache) started its
 run 3.7-3.9 s after process start instead of 6.3-6.5 s (2 warm runs each, alternated).
 
-And one package imported later, when first used: trimesh, which MJX imports for the convex
-hulls of mesh geoms (`mujoco.mjx._src.mesh`, when a model with meshes is put on the device),
-and which imports networkx and scipy.ndimage (0.5 s, `python -X importtime`): building
-`InvertedPendulum-v5` in a new process took 1.67-2.32 s (median 1.86 s) instead of 2.13-2.74 s
-(median 2.57 s), 5 runs each, alternated (2 CPU cores, AMD EPYC).
+And two modules imported later, when first used: trimesh (which imports networkx and
+scipy.ndimage) and scipy.spatial, which MJX's `mujoco.mjx._src.mesh` imports for the convex
+hulls of colliding mesh geoms, computed when a model with them is put on the device. Deferring
+trimesh (0.5 s, `python -X importtime`), building `InvertedPendulum-v5` in a new process took
+1.67-2.32 s (median 1.86 s) instead of 2.13-2.74 s (median 2.57 s); deferring scipy.spatial as
+well, 1.49-1.80 s (median 1.65 s) instead of 1.83-2.44 s (median 2.09 s) with trimesh alone (5
+and 6 runs each, alternated, 2 CPU cores, AMD EPYC).
 """
 
 from __future__ import annotations
@@ -75,10 +77,10 @@ class _Deferred(types.ModuleType):
 
 @contextlib.contextmanager
 def deferred(name: str, *placeholders: str):
-    """Inside, importing the top-level package `name` gives a `_Deferred` stand-in that imports
+    """Inside, importing the module `name` gives a `_Deferred` stand-in that imports
     the package when one of its attributes is first looked up (unless it is imported already);
     `placeholders` are attribute names the stand-in answers without importing it while open.
-    Afterwards `import name` imports the package itself."""
+    Afterwards `import name` imports the module itself."""
     if name in sys.modules:
         yield
         return
@@ -93,7 +95,7 @@ def deferred(name: str, *placeholders: str):
 @contextlib.contextmanager
 def mjx_import(*hidden: str):
     """For importing MJX (or a package that imports it): Warp and the packages `hidden`
-    hidden (`without`), trimesh deferred (`deferred`; the name MJX's annotations read,
-    ``Trimesh``, is a placeholder meanwhile)."""
-    with without("warp", *hidden), deferred("trimesh", "Trimesh"):
+    hidden (`without`), trimesh and scipy.spatial deferred (`deferred`; the name MJX's
+    annotations read, ``Trimesh``, is a placeholder meanwhile)."""
+    with without("warp", *hidden), deferred("trimesh", "Trimesh"), deferred("scipy.spatial"):
         yield

@@ -244,15 +244,17 @@ MESH_ON_A_FLOOR = """<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0 0 1 0 0 0
 <body pos="0 0 1"><freejoint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>"""
 
 
-def test_trimesh_is_imported_only_when_mjx_needs_it():
-    """Building an MJX environment leaves trimesh unimported (`envs._lean_import.deferred`);
-    a model whose mesh collides, put on the device, imports it: MJX's convex hull (the
-    tetrahedron's 4 vertices) is computed with the real `trimesh.Trimesh`."""
+def test_trimesh_and_scipy_spatial_are_imported_only_when_mjx_needs_them():
+    """Building an MJX environment leaves trimesh and scipy.spatial unimported
+    (`envs._lean_import.deferred`); a model whose mesh collides, put on the device, imports
+    them: MJX's convex hull (the tetrahedron's 4 vertices) is computed with the real
+    `trimesh.Trimesh`, and MJX's `spatial` is the real module."""
     code = ("import sys, envs, mujoco; envs.make('InvertedPendulum-v5'); "
-            "assert 'trimesh' not in sys.modules, sys.modules['trimesh']; "
+            "assert not {'trimesh', 'scipy.spatial'} & set(sys.modules); "
             "from envs._mjx import mjx; from mujoco.mjx._src import mesh; "
             f"m = mjx.put_model(mujoco.MjModel.from_xml_string({MESH_ON_A_FLOOR!r})); "
-            "import trimesh; assert mesh.trimesh.Trimesh is trimesh.Trimesh; "
+            "import trimesh, scipy.spatial; assert mesh.trimesh.Trimesh is trimesh.Trimesh; "
+            "assert mesh.spatial.ConvexHull is scipy.spatial.ConvexHull; "
             "assert m._impl.mesh_convex[0].vert.shape == (4, 3), m._impl.mesh_convex")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-3000:]
