@@ -77,8 +77,8 @@ class _Deferred(types.ModuleType):
 
 @contextlib.contextmanager
 def deferred(name: str, *placeholders: str):
-    """Inside, importing the module `name` gives a `_Deferred` stand-in that imports
-    the package when one of its attributes is first looked up (unless it is imported already);
+    """Inside, importing the module `name` gives a `_Deferred` stand-in that imports the
+    module when one of its attributes is first looked up (unless it is imported already);
     `placeholders` are attribute names the stand-in answers without importing it while open.
     Afterwards `import name` imports the module itself."""
     if name in sys.modules:

@@ -6,8 +6,8 @@ a tracked run holds what W&B wrote by then (it buffers its writes: a point may b
     python -m tests.killed_run STEP ARGS...     # ARGS: scripts/train.py's command line
 
 Run it in a process of its own (tests/test_train_script.py); its exit status is -9 when it was
-killed there, 3 if the point never reached the files (or a tracked run's W&B run never started), and scripts/train.py's own if
-the run never came to STEP.
+killed there, 3 if the point never reached the files (or a tracked run's W&B run never
+started), and scripts/train.py's own if the run never came to STEP.
 """
 
 from __future__ import annotations

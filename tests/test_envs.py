@@ -227,6 +227,14 @@ def test_errors():
         env.step(env.reset(jax.random.key(0)), jnp.zeros(2))
 
 
+def python_in_a_new_process(code: str) -> str:
+    """Runs `code` in a new Python process (imports as a user's would be), asserting it
+    succeeds; returns its stdout."""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return out.stdout
+
+
 def test_import_and_mjx_build_print_nothing_and_load_no_warp():
     """`import envs` leaves MJX unimported (a Pendulum-v1 run never needs it); building an MJX
     environment imports it without MJX's "Failed to import warp" line, and without Warp
@@ -234,9 +242,7 @@ def test_import_and_mjx_build_print_nothing_and_load_no_warp():
     code = ("import sys, envs; assert 'mujoco.mjx' not in sys.modules; "
             "envs.make('InvertedPendulum-v5'); assert 'mujoco.mjx' in sys.modules; "
             "assert 'warp' not in sys.modules, sys.modules['warp']")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True)
-    assert out.stdout == ""
+    assert python_in_a_new_process(code) == ""
 
 
 MESH_ON_A_FLOOR = """<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0 0 1 0 0 0 1"/></asset>
@@ -256,8 +262,7 @@ def test_trimesh_and_scipy_spatial_are_imported_only_when_mjx_needs_them():
             "import trimesh, scipy.spatial; assert mesh.trimesh.Trimesh is trimesh.Trimesh; "
             "assert mesh.spatial.ConvexHull is scipy.spatial.ConvexHull; "
             "assert m._impl.mesh_convex[0].vert.shape == (4, 3), m._impl.mesh_convex")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr[-3000:]
+    python_in_a_new_process(code)
 
 
 def test_a_deferred_module_is_the_real_one_at_first_use():
@@ -278,8 +283,7 @@ def test_a_deferred_module_is_the_real_one_at_first_use():
             "assert wave.Wave_read is not placeholder and wave.open is sys.modules['wave'].open\n"
             "import wave as real\n"
             "assert wave.Wave_read is real.Wave_read and type(real).__name__ == 'module'")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr[-3000:]
+    python_in_a_new_process(code)
 
 
 def test_another_mujoco_version_is_refused_in_one_line():
