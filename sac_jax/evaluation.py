@@ -37,21 +37,30 @@ def evaluate(agent: Agent, env, actor_params, key: jax.Array, num_episodes: int)
 def evaluate_from(agent: Agent, env, actor_params, start) -> jax.Array:
     """`evaluate` from the batched initial `EnvState` `start` (leading axis: episodes); each
     episode's return depends on its own initial state only (up to float rounding), so episodes
-    of several evaluations can share one batch."""
+    of several evaluations can share one batch.
+
+    The loop also stops after `env.max_episode_steps` steps, where every episode has been
+    truncated anyway. The bound is there for XLA: a loop condition that reads a single carried
+    value makes XLA's while-loop passes try to find its trip count by extracting all that the
+    body computes for that value, here the whole environment step, on every pass. With two,
+    they give up at once: `fast`'s evaluation program compiles in 2.9-3.7 s instead of
+    4.0-4.9 s (4.1-5.0 CPU-s instead of 5.1-6.0) on 2 CPU cores, with the same results.
+    """
     num_episodes = start.obs.shape[0]
 
     def running(carry):
-        _, alive, _ = carry
-        return jnp.any(alive)
+        _, alive, _, steps = carry
+        return jnp.any(alive) & (steps < env.max_episode_steps)
 
     def step(carry):
-        states, alive, returns = carry
+        states, alive, returns, steps = carry
         states = where_rows(alive, states, start)
         action = jnp.where(alive[:, None], agent.act(actor_params, states.obs), 0.0)
         states = jax.vmap(env.step)(states, action)
         returns = returns + jnp.where(alive, states.reward, 0.0)
         alive = alive & ~(states.terminated | states.truncated)
-        return states, alive, returns
+        return states, alive, returns, steps + 1
 
-    init = (start, jnp.ones(num_episodes, bool), jnp.zeros(num_episodes, jnp.float32))
+    init = (start, jnp.ones(num_episodes, bool), jnp.zeros(num_episodes, jnp.float32),
+            jnp.int32(0))
     return jax.lax.while_loop(running, step, init)[2]
