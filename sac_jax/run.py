@@ -184,6 +184,8 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
                 ("evaluate", parts.evaluate, EVALUATED_AXES, Chunk.evaluated(state)))
     # XLA compiles without Python's lock: each program compiles while the next is traced
     with concurrent.futures.ThreadPoolExecutor(len(programs) + 2) as pool:
+        init = pool.submit(init.compile, compiler_options=options)
+        finite = pool.submit(jax.jit(_finite_check).lower(state.sac).compile)
         compiled = []
         for name, part, axes, args in programs:
             mapped, placement = seed_mapping(part, seeds, (axes,), axes)
@@ -195,8 +197,6 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
             compiled.append(pool.submit(lowered.compile, compiler_options=options))
             if name == "advance":  # where the state lives: split as its arguments are
                 sharding = placement["in_shardings"][0] if placement else jax.local_devices()[0]
-        init = pool.submit(init.compile, compiler_options=options)
-        finite = pool.submit(jax.jit(_finite_check).lower(state.sac).compile)
         advance, evaluate = (program.result() for program in compiled)
         return parts, init.result(), Chunk(advance, evaluate), finite.result(), sharding
 
