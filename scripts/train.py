@@ -25,9 +25,12 @@ stderr and exit 2, before anything is written.
 
 from __future__ import annotations
 
+import gc
 import time
 
 STARTED = time.perf_counter()  # process start, for the times to a solved policy
+if __name__ == "__main__":
+    gc.disable()  # while the modules below are imported: see the gc.freeze() after them
 
 import dataclasses  # noqa: E402
 import os  # noqa: E402
@@ -50,6 +53,14 @@ from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  
 from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, device_split, fail, parse_with_preset,
                          progress_line, run_main, write_results)
+
+if __name__ == "__main__":
+    # The imports above make about 160,000 objects that live on. With the collector off while
+    # they were made, and those objects frozen now (no collection looks at them again), a warm
+    # run's process spent 0.17-0.22 s in collections instead of 0.43-0.53 s, and its delivered
+    # policy came 0.3-0.5 s sooner from process start (3 alternated runs, 2 CPU cores).
+    gc.freeze()
+    gc.enable()
 
 
 @dataclasses.dataclass(frozen=True)
