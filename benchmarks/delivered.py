@@ -8,7 +8,7 @@ environment.
 Each run is `python scripts/train.py --seed N --out DIR` (the README's first command, the
 `fast` preset) in its own process, with the compilation cache warm (a first run warms it;
 `--cold` also times one run from an empty cache directory; the many-seed run compiles its own
-program, cold unless `--warm-many`). From each run directory's
+program in a cache directory of its own, cold unless `--warm-many`). From each run directory's
 summary.json: the seconds from process start and of training until the delivered policy was
 solved (`solved_process_s`, `solved_wall_s`), and its confirmed return; then the delivered
 policy of every seed is evaluated over `--episodes` episodes of Gymnasium's
@@ -114,9 +114,10 @@ def main() -> None:
     if args.many:
         out = os.path.join(root, "many")
         many = ("--seeds", str(args.many), "--seed", "777")
+        cache = tempfile.mkdtemp(prefix="cache-many-", dir=root)  # no earlier process's programs
         if args.warm_many:  # a first run compiles the many-seed program into the cache
-            train(os.path.join(root, "many-warmup"), *many)
-        summary = train(out, *many)
+            train(os.path.join(root, "many-warmup"), *many, cache_dir=cache)
+        summary = train(out, *many, cache_dir=cache)
         scores = (gymnasium_scores if args.judge == "gymnasium" else our_scores)(
             out, args.many, args.episodes)
         result["many"] = {"seeds": args.many, "seed": 777, "judged_in": args.judge,
