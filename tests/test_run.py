@@ -3,11 +3,13 @@ more between its chunks (the finiteness check included), each evaluation point r
 fraction of seeds solved so far, and a non-finite state is named by quantity and seed."""
 
 import dataclasses
+import gc
 import logging
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import envs
 
@@ -146,3 +148,21 @@ def test_a_checkpoints_points_are_what_the_run_reported():
         assert step == step2 and means.keys() == means2.keys()
         np.testing.assert_array_equal(list(means.values()), list(means2.values()))
         np.testing.assert_array_equal(returns, returns2)
+
+
+def test_the_collector_is_off_inside_the_tracing_block_and_left_as_it_was():
+    """`run._collector_paused`: Python's cyclic collector is off inside, also when the block
+    raises, and afterwards as it was before (on, or off where the caller had turned it off)."""
+    assert gc.isenabled()
+    with pytest.raises(ValueError):
+        with run._collector_paused():
+            assert not gc.isenabled()
+            raise ValueError
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with run._collector_paused():
+            assert not gc.isenabled()
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -337,3 +337,21 @@ def test_a_resumed_tracked_run_logs_the_points_w_and_b_holds_once(tmp_path, offl
     assert [wandb_records.steps(p) for p in logs] == [[2000], [3000, 4000]]
     assert wandb_records.summary(logs[0])["status"] == "interrupted"
     assert wandb_records.summary(logs[1])["status"] == "finished"
+
+
+def test_run_as_a_script_it_freezes_its_imports_and_imported_it_leaves_the_collector_alone():
+    """Run as a script, train.py imports its modules with Python's cyclic collector off, then
+    freezes what they made and turns the collector back on (its comment has the figures).
+    Imported, as tests and benchmarks do, it changes neither."""
+    code = """import gc, runpy, sys
+sys.argv = ["train.py", "--help"]
+try:
+    runpy.run_path("scripts/train.py", run_name=sys.argv[1])
+except SystemExit:
+    pass
+print("collector", gc.isenabled(), gc.get_freeze_count() > 0)"""
+    for run_name, frozen in (("__main__", True), ("train", False)):
+        out = subprocess.run([sys.executable, "-c", code.replace("sys.argv[1]", repr(run_name))],
+                             capture_output=True, text=True, cwd=ROOT)
+        assert out.returncode == 0, out.stderr[-3000:]
+        assert out.stdout.splitlines()[-1] == f"collector True {frozen}", out.stdout[-500:]
