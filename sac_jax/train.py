@@ -143,9 +143,9 @@ def non_finite_fields(config: SACConfig) -> Tuple[str, ...]:
 
 def _non_finite_code(sac: SACState, fields: Tuple[str, ...]) -> jax.Array:
     """1 + the index in `fields` of the first field of `sac` holding a NaN or an infinity; 0
-    if none does. One reduction per field, over its floating leaves concatenated: `fast`'s
-    training program compiles in about 1 CPU-s less than with one per leaf (2 CPU cores) and
-    traces faster, as every update of the chunk's scan checks its result."""
+    if none does. One reduction per field, over its floating leaves concatenated (every update
+    of the chunk's scan checks its result): `fast`'s training program compiles in 7.3 CPU-s
+    against 7.8 with one reduction per leaf (median of 7 alternated runs, 2 CPU cores)."""
     code = jnp.int32(0)
     for i, name in reversed(list(enumerate(fields))):
         leaves = jax.tree_util.tree_leaves(getattr(sac, name))
