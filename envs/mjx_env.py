@@ -139,7 +139,9 @@ class MjxEnv(Env):
         the forward's two calls shared a trace, it cost 4 s more trace and compile of the
         default preset on a CPU, and on an H100 about 2 s of a cold `fast` run's 19 s compile
         while saving 0.25 s of its 1.95 s training (ad hoc, one cold and warm run each;
-        `compile_options-levels-h100.json` has the lean runs).
+        `compile_options-levels-h100.json` has the lean runs). Since, an H100 compiles `fast`
+        as fast either way (3 alternated cold runs: 16.4-19.4 s lean, 15.4-20.2 s not) and
+        trains it to solved in 1.65-1.74 s lean against 1.94-2.21 s (ad hoc, 2026-11-27).
         """
         m = self.mjx_model
         a, b, ends = _rk4_weights(data, self._frame_skip)
