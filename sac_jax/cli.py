@@ -1,7 +1,8 @@
 """What the command-line scripts share: a tyro command line generated from a dataclass, whose bad
 input ends with one line on stderr and no traceback (exit 2); a missing dependency ends the same
 way with exit 1; and what scripts/train.py and scripts/sweep.py both do: presets as the
-defaults of the config flags, the progress line, stopping on a signal, a run's result files.
+defaults of the config flags, the compile and progress lines, stopping on a signal, a run's
+result files.
 
 tyro reports bad input in multi-line panels; `parse` turns each report into one line naming the
 flag and the value. It uses tyro's parse-error hook (`tyro._errors.on_parse_error`), which tyro
@@ -19,7 +20,7 @@ from typing import TYPE_CHECKING, Literal, NoReturn, Optional, Sequence, Type, T
 import tyro
 from tyro import _errors
 
-from sac_jax import metric_writers, parallel, plots
+from sac_jax import compilation_cache, metric_writers, parallel, plots
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
 
 if TYPE_CHECKING:
@@ -160,6 +161,30 @@ def progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
             f"alpha {number('alpha', '.3f')} | critic {number('critic_loss', '.3g')} | actor "
             f"{number('actor_loss', '.3g')} | {step * seeds / max(elapsed, 1e-9):8.0f} steps/s "
             f"| {elapsed:6.1f} s{solved}")
+
+
+class CompileNotice:
+    """The console's line while a run's programs are built, the longest wait of a first run
+    (`fast`: about 10 s on 2 CPU cores; later runs read the programs from the cache): made,
+    it prints "compiling the programs (where they are cached) ..." and leaves the line open;
+    `ready(seconds)` (`run_training`'s `on_ready`) ends it with the seconds; `close()` ends
+    it if `ready` never came, so that an error's line starts on a line of its own."""
+
+    def __init__(self):
+        directory = compilation_cache.active_directory()
+        where = (f"cached in {directory} for later runs" if directory
+                 else "no cache: every run compiles them")
+        print(f"compiling the programs ({where}) ...", end="", flush=True)
+        self.open = True
+
+    def ready(self, seconds: float) -> None:
+        print(f" {seconds:.1f} s", flush=True)
+        self.open = False
+
+    def close(self) -> None:
+        if self.open:
+            print(flush=True)
+            self.open = False
 
 
 class StopRequest:

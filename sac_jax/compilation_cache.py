@@ -32,13 +32,19 @@ def enable_compilation_cache(directory: Optional[str] = None) -> Optional[str]:
     return directory
 
 
-def program_directory() -> Optional[str]:
-    """Where `sac_jax.program_cache` keeps traced programs: `programs/` in the persistent
-    compilation cache's directory; None while that cache is off."""
+def active_directory() -> Optional[str]:
+    """The persistent compilation cache's directory; None while the cache is off."""
     directory = jax.config.jax_compilation_cache_dir
     if not directory or not jax.config.jax_enable_compilation_cache:
         return None
-    return os.path.join(directory, "programs")
+    return directory
+
+
+def program_directory() -> Optional[str]:
+    """Where `sac_jax.program_cache` keeps traced programs: `programs/` in the persistent
+    compilation cache's directory; None while that cache is off."""
+    directory = active_directory()
+    return None if directory is None else os.path.join(directory, "programs")
 
 
 MUJOCO_CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False,

@@ -256,6 +256,7 @@ compiled_program.cache_info = _compiled_program.cache_info
 def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  settings: Optional[Dict[str, Sequence[float]]] = None,
                  resume: Optional[tuple] = None,
+                 on_ready: Optional[Callable[[float], None]] = None,
                  on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
                  on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
                  should_stop: Optional[Callable[[], bool]] = None,
@@ -270,6 +271,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         S x seeds runs in the one program, setting-major (run r = setting r // seeds, key
         r % seeds); every per-seed figure of the result then has S x seeds entries.
     resume: `(state, Position)` read from a checkpoint; the run continues from there.
+    on_ready(seconds): once, when the programs are built (traced and compiled, or read from the
+        caches) and the starting state is dispatched, with the seconds that took (what this
+        call adds to the summary's `compile_s`).
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
         metrics averaged over seeds and each seed's evaluation return; for a task with a solved
         threshold (`envs.spec(env).solved_return`), means["solved"] is the fraction of seeds whose delivered
@@ -311,7 +315,10 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         runner, position = resume
         runner = jax.device_put(runner, sharding)
         position = position.copy()
-    position.compile_s += time.perf_counter() - t0
+    built = time.perf_counter() - t0
+    position.compile_s += built
+    if on_ready is not None:
+        on_ready(built)
     start = time.perf_counter() - position.run_s
     status, message = FINISHED, ""
 

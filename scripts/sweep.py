@@ -53,7 +53,7 @@ import tyro  # noqa: E402
 import sac_jax  # noqa: E402
 from sac_jax import (hyperparams, memory, metric_writers, parallel, run_checkpoint,  # noqa: E402
                      run_dir, tracking)
-from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest,  # noqa: E402
+from sac_jax.cli import (EXIT_CODES, CompileNotice, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, device_split, fail, parse_with_preset,
                          progress_line, run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
@@ -280,13 +280,15 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
             writer.add_point(step, means, eval_returns)
 
     checkpoints = run_checkpoint.CheckpointWriter(path)
+    notice = CompileNotice()
     try:
         result = run_training(
             program.config, seeds=seeds, seed=sweep["seed"], settings=program.settings,
-            resume=resume, on_point=on_point, on_checkpoint=checkpoints.save,
-            should_stop=lambda: stop.signal is not None, started=STARTED, check_memory=False,
-            stop_on_non_finite=False)
+            resume=resume, on_ready=notice.ready, on_point=on_point,
+            on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
+            started=STARTED, check_memory=False, stop_on_non_finite=False)
     finally:
+        notice.close()
         try:
             tensorboard.close()
         finally:  # waits for the checkpoint under way, even if a signal came first

@@ -50,7 +50,7 @@ from sac_jax import (memory, metric_writers, parallel, run_checkpoint, run_dir, 
                      tracking)
 from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
                          run_training)
-from sac_jax.cli import (EXIT_CODES, PresetName, StopRequest,  # noqa: E402
+from sac_jax.cli import (EXIT_CODES, CompileNotice, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, device_split, fail, parse_with_preset,
                          progress_line, run_main, write_results)
 
@@ -221,14 +221,16 @@ def main(argv=None) -> int:
     stop = StopRequest()
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
     checkpoints = run_checkpoint.CheckpointWriter(out)
+    notice = CompileNotice()
     try:
         try:
             result = run_training(
                 config, seeds=seeds, seed=info.seed, settings=info.settings,
-                resume=resume, on_point=on_point,
+                resume=resume, on_ready=notice.ready, on_point=on_point,
                 on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
                 started=STARTED, check_memory=False)  # checked above, before the run directory
         finally:
+            notice.close()
             try:  # still under our handlers: a second signal during the last save stops at once
                 try:
                     tensorboard.close()

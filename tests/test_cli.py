@@ -9,7 +9,8 @@ from typing import Literal, Optional, Tuple
 import pytest
 import tyro
 
-from sac_jax.cli import LeaveNow, StopRequest, UsageError, parse, positive
+from sac_jax import compilation_cache
+from sac_jax.cli import CompileNotice, LeaveNow, StopRequest, UsageError, parse, positive
 from sac_jax.run import DeviceBusy
 
 
@@ -70,3 +71,25 @@ def test_a_stop_at_once_says_why_in_one_line_and_leaves_with_the_signals_code(
         stop.leave_now(error, "continue with --resume out")
     assert leave.value.code == code
     assert capsys.readouterr().err.splitlines()[-1] == f"error: {why}; continue with --resume out"
+
+
+@pytest.mark.parametrize("directory, where", [
+    ("/cache/jax", "cached in /cache/jax for later runs"),
+    (None, "no cache: every run compiles them")])
+def test_the_compile_line_says_where_the_programs_go_and_ends_with_the_seconds(
+        capsys, monkeypatch, directory, where):
+    monkeypatch.setattr(compilation_cache, "active_directory", lambda: directory)
+    notice = CompileNotice()
+    assert capsys.readouterr().out == f"compiling the programs ({where}) ..."  # line left open
+    notice.ready(9.46)
+    notice.close()  # the line is ended already
+    assert capsys.readouterr().out == " 9.5 s\n"
+
+
+def test_a_compile_line_left_open_is_ended_before_an_error(capsys, monkeypatch):
+    monkeypatch.setattr(compilation_cache, "active_directory", lambda: None)
+    notice = CompileNotice()
+    capsys.readouterr()
+    notice.close()  # no ready: e.g. the compile failed
+    notice.close()
+    assert capsys.readouterr().out == "\n"

@@ -278,8 +278,13 @@ def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
     assert run_checkpoint.saved_steps(runs["interrupted"]) == [2000]
 
 
-def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs):
+def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs, capsys):
     assert train_script.main(["--resume", runs["stopped"]]) == 0
+    # the wait for the programs has a line of its own, with its seconds (the summary's)
+    compiled = capsys.readouterr().out.splitlines()[1]
+    assert compiled.startswith("compiling the programs (") and compiled.endswith(" s"), compiled
+    summary = json.load(open(os.path.join(runs["stopped"], "summary.json")))
+    assert summary["compile_s"] >= float(compiled.split()[-2])  # both runs' compiles
     assert _metrics(runs["stopped"]) == _metrics(runs["whole"])
     resumed, whole = _checkpoint_arrays(runs["stopped"]), _checkpoint_arrays(runs["whole"])
     assert len(resumed) == len(whole)
