@@ -64,7 +64,7 @@ XLA's default is kept: with it rejax's Pendulum-v1 configuration compiles in 4.3
 def compiler_options(env) -> dict:
     """Options for `jax.stages.Lowered.compile` of a training program on `env` on the default
     backend. On a GPU, XLA's defaults: without Triton's matrix products (cuBLAS's instead), an
-    H100 compiles `fast` about 2 s sooner, but trains it 2.15-2.20 s to solved against
+    H100 compiles `fast` about 2 s sooner, but trains it 2.09-2.20 s to solved against
     1.90-1.99 s, and rejax's Pendulum-v1 configuration with 256 seeds 9.2-9.8 s against
     5.3-5.6 s (BENCHMARKS.md, 2026-11-27)."""
     if jax.default_backend() == "cpu" and env.simulates_mujoco:
