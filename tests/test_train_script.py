@@ -280,7 +280,8 @@ def test_sigint_saves_a_checkpoint_and_summary_then_exits_130(runs):
 
 def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs, capsys):
     assert train_script.main(["--resume", runs["stopped"]]) == 0
-    # the wait for the programs has a line of its own, with its seconds (the summary's)
+    # the wait for the programs has a line of its own, with its seconds (which the summary's
+    # compile_s adds to the interrupted run's)
     compiled = capsys.readouterr().out.splitlines()[1]
     assert compiled.startswith("compiling the programs (") and compiled.endswith(" s"), compiled
     summary = json.load(open(os.path.join(runs["stopped"], "summary.json")))
