@@ -5,7 +5,9 @@ A variant is a preset with fields replaced, given as JSON (`--variant '{"critic_
 true}'`, repeatable; `{}` is the preset itself). Per variant: the delivered return (confirmed,
 `sac_jax.selection`) of every seed at the end, the mean curve of delivered returns over the
 evaluation points, the wall time (compilation included) and the run's environment steps.
-Stopping is off unless the variant sets it, so every seed uses the whole budget.
+Stopping is off unless the variant sets it, so every seed uses the whole budget; with
+`--target R` each seed stops once its delivered actor is confirmed at R, and a row also records
+when all its seeds had (`all_reached`: env steps and seconds, compilation included).
 
     python -m benchmarks.preset_search --preset CartpoleSwingup --seeds 8 \\
         --variant '{}' --variant '{"critic_layer_norm": true}'
@@ -31,16 +33,21 @@ def run_variant(config, seeds: int, seed: int) -> dict:
     points = []
     t0 = time.time()
 
+    reached = []
+
     def on_point(step, means, _returns, _elapsed):
         points.append((int(step), round(float(means["delivered_return"]), 1),
                        round(time.time() - t0, 1)))
+        if means["stopped"] == 1.0 and not reached:  # every seed confirmed at the target
+            reached.append(dict(env_steps=points[-1][0], seconds=points[-1][2]))
 
     result = run_training(config, seeds=seeds, seed=seed, on_point=on_point)
     delivered = np.asarray(result.summary["delivered_return"], np.float64)
     return dict(wall_s=round(time.time() - t0, 1), env_steps=points[-1][0],
                 delivered=[round(float(d), 1) for d in delivered],
                 delivered_mean=round(float(delivered.mean()), 1),
-                delivered_min=round(float(delivered.min()), 1), curve=points)
+                delivered_min=round(float(delivered.min()), 1),
+                all_reached=reached[0] if reached else None, curve=points)
 
 
 def main() -> None:
@@ -50,20 +57,26 @@ def main() -> None:
                         help="JSON object of fields to replace (repeatable)")
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--target", type=float, default=None,
+                        help="stop each seed once its delivered actor is confirmed at this "
+                             "return; record when all seeds had")
     args = parser.parse_args()
     source = provenance()
-    base = PRESETS[args.preset].replace(stop_when_solved=False)
+    base = PRESETS[args.preset].replace(stop_when_solved=args.target is not None,
+                                        stop_return=args.target)
     configs = [base.replace(**v) for v in args.variant]  # all validated before any run
     rows = []
     for variant, config in zip(args.variant, configs):
         row = dict(variant=variant, **run_variant(config, args.seeds, args.seed))
         rows.append(row)
         print(f"{json.dumps(variant)}: delivered mean {row['delivered_mean']}, min "
-              f"{row['delivered_min']} after {row['env_steps']:,} steps, {row['wall_s']} s; "
+              f"{row['delivered_min']} after {row['env_steps']:,} steps, {row['wall_s']} s, all "
+              f"at the target {row['all_reached']}; "
               f"curve {row['curve'][::max(1, len(row['curve']) // 8)]}", flush=True)
     task = configs[0].env.split("/")[-1]  # the first variant's environment names the file
     write_result(result_name(f"preset_search-{task}"),
-                 dict(preset=args.preset, seeds=args.seeds, rows=rows), source)
+                 dict(preset=args.preset, seeds=args.seeds, target=args.target, rows=rows),
+                 source)
 
 
 if __name__ == "__main__":
