@@ -4,13 +4,14 @@
     python scripts/evaluate.py runs/pendulum --episodes 50 --which gymnasium
     python scripts/evaluate.py runs/pendulum --paired --json      # same initial states
 
-Runs the deterministic policy a = scale * tanh(mu(s)) + bias of one of the run's seeds
-(`sac_jax.load_policy`: the delivered actor, or with `--policy last` the last update's) for N
-episodes and prints the undiscounted return, mean ± std over the
-episodes, of each environment:
+Runs the deterministic policy a = scale * tanh(mu(s)) + bias of one of the run's seeds, loaded
+by `sac_jax.load_policy` (the delivered actor, or with `--policy last` the last update's), for
+N episodes and prints the undiscounted return, mean ± std over the episodes, of each
+environment:
     ours       `envs.make(env)`, the N episodes in parallel in one jitted `sac_jax.evaluate`
     gymnasium  `gymnasium.make(env)` (InvertedPendulum-v5/-v4, InvertedDoublePendulum-v5,
                Pendulum-v1), stepped on the host one action at a time
+
 Ours draws its initial states from `--episode-seed`; Gymnasium resets with `seed=--episode-seed`
 (its own sampler, so the episodes differ). With `--paired` each Gymnasium episode instead starts
 from the initial state of the same episode of ours (MuJoCo's `set_state(qpos, qvel)`,

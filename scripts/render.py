@@ -14,6 +14,7 @@ default (fps = 1 / dt):
                          is MUJOCO_GL: egl if libEGL is found (system package libegl1), else
                          osmesa if libOSMesa is (libosmesa6), unless MUJOCO_GL is already set
     Pendulum-v1          matplotlib (the pendulum rod, θ = 0 upright)
+
 The file is written under a temporary name in the same directory and renamed; an existing file
 is kept unless `--force`. Bad input (run directory, checkpoint, seed, values, an existing
 output, an output whose directory is missing or not writable, checked before anything is
