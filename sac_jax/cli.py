@@ -86,7 +86,8 @@ class LeaveNow(Exception):
 
 def run_main(main) -> None:
     """`sys.exit(main())`; on `LeaveNow`, `os._exit(code)` after flushing: an interpreter
-    shutting down waits for the device's running computation (a minute, measured)."""
+    shutting down waits for the device's running computation (a minute, measured). When the
+    reader of standard output has gone (`... --help | head -3`), exit 1 without a traceback."""
     import os
 
     try:
@@ -95,6 +96,10 @@ def run_main(main) -> None:
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(leave.code)
+    except BrokenPipeError:
+        # what is left in stdout's buffer goes nowhere, not into a second error at exit
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        code = 1
     sys.exit(code)
 
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 import warnings
 from typing import Literal, Optional
 
@@ -40,7 +39,7 @@ import sac_jax
 from envs.pendulum import PendulumData
 from sac_jax import run_dir
 from sac_jax.evaluation import initial_states
-from sac_jax.cli import MissingDependency, fail, parse, positive
+from sac_jax.cli import MissingDependency, fail, parse, positive, run_main
 
 GYMNASIUM_MISSING = 'Gymnasium is not installed: pip install "gymnasium[mujoco]"'
 
@@ -188,4 +187,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_main(main)

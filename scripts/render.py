@@ -72,7 +72,7 @@ from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from envs.task_adapter import TaskAdapter  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
-from sac_jax.cli import MissingDependency, fail, parse, positive  # noqa: E402
+from sac_jax.cli import MissingDependency, fail, parse, positive, run_main  # noqa: E402
 
 FORMATS = (".gif", ".mp4")
 
@@ -326,4 +326,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_main(main)

@@ -1,9 +1,12 @@
 """sac_jax/cli.py: every kind of bad command line tyro reports becomes one line naming the flag
 and the value (UsageError), and good input parses as tyro parses it; a stop at once says why in
-one line and leaves with the signal's exit code."""
+one line and leaves with the signal's exit code; a script whose reader has gone exits quietly."""
 
 import dataclasses
+import os
 import signal
+import subprocess
+import sys
 from typing import Literal, Optional, Tuple
 
 import pytest
@@ -12,6 +15,7 @@ import tyro
 from sac_jax import compilation_cache
 from sac_jax.cli import CompileNotice, LeaveNow, StopRequest, UsageError, parse, positive
 from sac_jax.run import DeviceBusy
+from tests.subprocess_json import ROOT
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,3 +97,18 @@ def test_a_compile_line_left_open_is_ended_before_an_error(capsys, monkeypatch):
     notice.close()  # no ready: e.g. the compile failed
     notice.close()
     assert capsys.readouterr().out == "\n"
+
+
+@pytest.mark.parametrize("script", ["train", "sweep", "evaluate", "render"])
+def test_a_script_whose_reader_has_gone_exits_1_without_a_traceback(script):
+    """`python scripts/train.py --help | head -1`: the reader of standard output is gone (here
+    before the first write), so a write fails with EPIPE; the script ends with exit 1 and
+    nothing on stderr, not a BrokenPipeError traceback."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        proc = subprocess.run([sys.executable, f"scripts/{script}.py", "--help"], cwd=ROOT,
+                              stdout=write, stderr=subprocess.PIPE, text=True, timeout=300)
+    finally:
+        os.close(write)
+    assert (proc.returncode, proc.stderr) == (1, "")
