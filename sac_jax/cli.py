@@ -172,8 +172,9 @@ class CompileNotice:
     """The console's line while a run's programs are built, the longest wait of a first run
     (`fast`: about 10 s on 2 CPU cores; later runs read the programs from the cache): made,
     it prints "compiling the programs (where they are cached) ..." and leaves the line open;
-    `ready(seconds)` (`run_training`'s `on_ready`) ends it with the seconds; `close()` ends
-    it if `ready` never came, so that an error's line starts on a line of its own."""
+    `ready(seconds)` (`run_training`'s `on_ready`) ends it with the seconds (or, where the line
+    was ended before, says them on a line of its own); `close()` ends it if `ready` has not
+    come, so that an error's or a signal's line starts on a line of its own."""
 
     def __init__(self):
         directory = compilation_cache.active_directory()
@@ -183,7 +184,8 @@ class CompileNotice:
         self.open = True
 
     def ready(self, seconds: float) -> None:
-        print(f" {seconds:.1f} s", flush=True)
+        print(f" {seconds:.1f} s" if self.open else f"programs ready after {seconds:.1f} s",
+              flush=True)
         self.open = False
 
     def close(self) -> None:
@@ -194,15 +196,19 @@ class CompileNotice:
 
 class StopRequest:
     """Signal handler: the first SIGINT/SIGTERM asks the run to stop at the next chunk boundary
-    (after saving); a second one stops at once."""
+    (after saving); a second one stops at once. `notice`: the run's `CompileNotice`, whose open
+    line a signal's message ends first."""
 
     def __init__(self):
         self.signal = None
+        self.notice: Optional[CompileNotice] = None
 
     def __call__(self, signum, frame):
         if self.signal is not None:
             raise KeyboardInterrupt
         self.signal = signum
+        if self.notice is not None:
+            self.notice.close()
         print(f"{signal.Signals(signum).name}: stopping after the current chunk; saving a "
               "checkpoint (again to stop at once)", file=sys.stderr, flush=True)
 

@@ -280,7 +280,7 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
             writer.add_point(step, means, eval_returns)
 
     checkpoints = run_checkpoint.CheckpointWriter(path)
-    notice = CompileNotice()
+    notice = stop.notice = CompileNotice()
     try:
         result = run_training(
             program.config, seeds=seeds, seed=sweep["seed"], settings=program.settings,

@@ -221,7 +221,7 @@ def main(argv=None) -> int:
     stop = StopRequest()
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
     checkpoints = run_checkpoint.CheckpointWriter(out)
-    notice = CompileNotice()
+    notice = stop.notice = CompileNotice()
     try:
         try:
             result = run_training(

@@ -99,6 +99,20 @@ def test_a_compile_line_left_open_is_ended_before_an_error(capsys, monkeypatch):
     assert capsys.readouterr().out == "\n"
 
 
+def test_a_signal_during_the_compile_ends_its_line_first(capsys, monkeypatch):
+    """SIGINT while the programs compile: the open line ends before the signal's message, and
+    the seconds come on a line of their own."""
+    monkeypatch.setattr(compilation_cache, "active_directory", lambda: None)
+    stop = StopRequest()
+    notice = stop.notice = CompileNotice()
+    stop(signal.SIGINT, None)
+    notice.ready(9.46)
+    captured = capsys.readouterr()
+    assert captured.out == ("compiling the programs (no cache: every run compiles them) ...\n"
+                            "programs ready after 9.5 s\n")
+    assert captured.err.startswith("SIGINT: stopping after the current chunk")
+
+
 @pytest.mark.parametrize("script", ["train", "sweep", "evaluate", "render"])
 def test_a_script_whose_reader_has_gone_exits_1_without_a_traceback(script):
     """`python scripts/train.py --help | head -1`: the reader of standard output is gone (here
