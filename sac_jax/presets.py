@@ -40,7 +40,11 @@
               updates per step, batch 512, tau 0.005 and 8,192 steps before learning, and a
               starting temperature of 1 (a GPU preset; no solved return set): 8 seeds on an H200
               delivered 20.3 on average in 52 s, against 15.4 in 144 s with PendulumSwingup's
-              own (`benchmarks/preset_search.py`)
+              own (`benchmarks/preset_search.py`). Its seeds differ widely: of 16 on an H100, 1
+              or 2 were not confirmed at Playground SAC's final 12.3 within 409,600 steps, with
+              these settings (the lowest delivered 8.5), 64 environments (7.0), a starting
+              temperature of 0.1 (8.5) or 16 updates per step (11.6, in 1.7x the training
+              time; `preset_search-AcrobotSwingup-h100.json`)
 """
 
 from sac_jax.config import SACConfig
