@@ -30,10 +30,8 @@ from sac_jax.run import run_training
 
 
 def run_variant(config, seeds: int, seed: int) -> dict:
-    points = []
+    points, reached = [], []
     t0 = time.time()
-
-    reached = []
 
     def on_point(step, means, _returns, _elapsed):
         points.append((int(step), round(float(means["delivered_return"]), 1),

@@ -9,10 +9,10 @@ settings allow.
 
 `--set FIELD=V1,V2,...` (repeatable) sweeps a numeric SACConfig field; the settings are the grid
 over every `--set`, each trained on the same `--seeds` keys, and every other flag of
-scripts/train.py sets the base configuration. Fields that change no
-shape (those in `sac_jax.hyperparams.NAMES`: gamma, tau, reward_scale, loss_coef, alpha_init, log_alpha_init,
-target_entropy and the learning rates) are traced values of one vmapped program; every
-combination of the other fields (batch_size, num_envs, buffer_size, ...) is a program of its own,
+scripts/train.py sets the base configuration. The fields that change no shape are traced
+values of one vmapped program (they are in `sac_jax.hyperparams.NAMES`: gamma, tau,
+reward_scale, loss_coef, alpha_init, log_alpha_init, target_entropy and the learning rates);
+every combination of the other fields (batch_size, num_envs, buffer_size, ...) is a program of its own,
 compiled once and run after the previous one. A setting whose state turns non-finite is
 reported and the others train on.
 
