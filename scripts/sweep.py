@@ -12,9 +12,9 @@ over every `--set`, each trained on the same `--seeds` keys, and every other fla
 scripts/train.py sets the base configuration. The fields that change no shape are traced
 values of one vmapped program (they are in `sac_jax.hyperparams.NAMES`: gamma, tau,
 reward_scale, loss_coef, alpha_init, log_alpha_init, target_entropy and the learning rates);
-every combination of the other fields (batch_size, num_envs, buffer_size, ...) is a program of its own,
-compiled once and run after the previous one. A setting whose state turns non-finite is
-reported and the others train on.
+every combination of the other fields (batch_size, num_envs, buffer_size, ...) is a program of
+its own, compiled once and run after the previous one. A setting whose state turns non-finite
+is reported and the others train on.
 
 Writes the sweep directory (default runs/sweep-<preset>-<time>): sweep.json (what was asked),
 programs/<i>/ (a run directory per program, as scripts/train.py writes; `sac_jax.load_policy`
