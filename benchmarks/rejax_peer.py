@@ -82,7 +82,7 @@ def evaluation_s(seeds: int, repeats: int) -> float:
     """Median seconds of one evaluation point of `seeds` seeds through the script's compiled
     `evaluate`, timed alone on the state at the first point (a fresh copy each call: the
     program consumes its argument)."""
-    _, init, chunk, _, _ = compiled_program(CONFIG, seeds)
+    _, init, chunk, _ = compiled_program(CONFIG, seeds)
     runner = init(jax.random.split(jax.random.key(0), seeds))
     while int(runner.iteration) < CONFIG.prefill_iterations + CONFIG.iterations_per_eval:
         runner = chunk.advance(runner)

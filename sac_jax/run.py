@@ -128,18 +128,11 @@ def solved_at(returns: np.ndarray, env_steps: np.ndarray, threshold: float) -> O
 
 
 def _finite_flags(tree):
-    """Per leaf, per seed: whether every entry is finite. Leaves (seeds, ...) -> (seeds,)."""
+    """Per leaf, per seed: whether every entry is finite, computed on the host (a run reads them
+    only once `RunnerState.non_finite` says a seed's state is no longer finite).
+    Leaves (seeds, ...) -> (seeds,)."""
     return jax.tree_util.tree_map(
-        lambda x: jnp.all(jnp.isfinite(x), axis=tuple(range(1, x.ndim))), tree)
-
-
-def _finite_check(tree):
-    """(whether every entry of `tree` is finite, as one () bool, `_finite_flags(tree)`): the run
-    fetches the one bool after each chunk, and the flags only where it is false (fetching the
-    flags, one small array per leaf, cost 0.55 ms a chunk on the CPU: 1.4 s of a 2,500-chunk
-    run)."""
-    flags = _finite_flags(tree)
-    return jnp.all(jnp.stack([jnp.all(f) for f in jax.tree_util.tree_leaves(flags)])), flags
+        lambda x: np.all(np.isfinite(x), axis=tuple(range(1, np.ndim(x)))), jax.device_get(tree))
 
 
 def first_non_finite(flags, first: Optional[Sequence[Optional[str]]] = None) -> Optional[str]:
@@ -182,13 +175,12 @@ def _collector_paused():
 @functools.lru_cache(maxsize=4)
 def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     """(parts, compiled vmapped init, `Chunk` of the compiled vmapped `advance` and `evaluate`,
-    compiled `_finite_check` of the state's `SACState`, the state's sharding) for `seeds` seeds
-    of `config` (with the hyperparameters `swept` traced, one value per seed: `init(keys,
-    {name: (seeds,)})`), the seeds split into equal groups over the local devices
-    (`sac_jax.parallel.seed_devices`). Kept per (config, seeds), so later runs of the same
-    shapes in this process neither trace nor compile again; other processes find the compiled
-    programs in the persistent compilation cache and the traced ones in
-    `sac_jax.program_cache`."""
+    the state's sharding) for `seeds` seeds of `config` (with the hyperparameters `swept`
+    traced, one value per seed: `init(keys, {name: (seeds,)})`), the seeds split into equal
+    groups over the local devices (`sac_jax.parallel.seed_devices`). Kept per (config, seeds),
+    so later runs of the same shapes in this process neither trace nor compile again; other
+    processes find the compiled programs in the persistent compilation cache and the traced
+    ones in `sac_jax.program_cache`."""
     directory = program_directory()
     # XLA compiles without Python's lock: each program compiles while the next is traced
     with concurrent.futures.ThreadPoolExecutor(4) as pool:
@@ -202,7 +194,6 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
                 keys, *([values] if swept else []))
             state = init.out_info
             init = pool.submit(init.compile, compiler_options=options)
-            finite = pool.submit(jax.jit(_finite_check).lower(state.sac).compile)
             compiled = []
             for name, part, axes, args in (
                     ("advance", parts.advance, SEED_AXES, state),
@@ -220,7 +211,7 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
         if gc.isenabled():
             gc.collect(1)  # tracing's garbage (younger generations), while XLA compiles
         advance, evaluate = (program.result() for program in compiled)
-        return parts, init.result(), Chunk(advance, evaluate), finite.result(), sharding
+        return parts, init.result(), Chunk(advance, evaluate), sharding
 
 
 class Chunk:
@@ -301,7 +292,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     if check_memory:
         memory.check(config, seeds)
     t0 = time.perf_counter()
-    parts, init, chunk, finite, sharding = compiled_program(config, seeds, tuple(values))
+    parts, init, chunk, sharding = compiled_program(config, seeds, tuple(values))
     # before the state exists
     temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate))
     model = memory.need(config, seeds, temporaries=temporaries, process=process)
@@ -341,21 +332,22 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         new_points = points_reached(runner)
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position.run_s = host_start - start
-        all_finite, flags = finite(runner.sac)
-        fields = non_finite_fields(config)
-        bad = None if bool(all_finite) else first_non_finite(
-            flags, [fields[c - 1] if c else None
-                    for c in np.ravel(jax.device_get(runner.non_finite))])
-        if bad is not None:
+        # the updates' sticky per-seed codes (`RunnerState.non_finite`): one small fetch a chunk;
+        # a compiled check of the whole state here cost a cold `fast` run 0.3 s of compiling
+        # (median of 7 alternated pairs, 2 CPU cores)
+        codes = np.broadcast_to(jax.device_get(runner.non_finite), (seeds,))
+        if codes.any():
+            fields = non_finite_fields(config)
+            first = [fields[c - 1] if c else None for c in codes]
+            lowest = int(np.argmax(codes != 0))
+            bad = (first_non_finite(_finite_flags(runner.sac), first)
+                   or f"{first[lowest]} of seed {lowest}")  # where the NaN has since gone
             steps = int(runner.iteration) * config.num_envs
             if stop_on_non_finite:
                 status, message = NON_FINITE, (f"non-finite {bad} between environment steps "
                                                f"{start_steps} and {steps}")
                 break
-            finite_runs = np.all([np.broadcast_to(f, (seeds,))  # shared counters: one flag
-                                  for f in jax.tree_util.tree_leaves(jax.device_get(flags))],
-                                 axis=0)
-            for run in np.flatnonzero(~finite_runs):
+            for run in np.flatnonzero(codes):
                 position.non_finite.setdefault(int(run), steps)
         reached = new_points > points
         if reached:
