@@ -3,11 +3,12 @@ seeds, the time to a solved delivered policy and that policy's return in Gymnasi
 environment.
 
     python -m benchmarks.delivered                       # seeds 0-9 one by one, then --seeds 32
-    python -m benchmarks.delivered --seeds 0 1 2 --many 8 --cold
+    python -m benchmarks.delivered --seeds 0 1 2 --many 8 --cold 5
 
 Each run is `python scripts/train.py --seed N --out DIR` (the README's first command, the
 `fast` preset) in its own process, with the compilation cache warm (a first run warms it;
-`--cold` also times one run from an empty cache directory; the many-seed run compiles its own
+`--cold N` also times N runs, each from an empty cache directory, and reports their medians
+and ranges (first runs swing ±15 % on a 2-core VM); the many-seed run compiles its own
 program in a cache directory of its own, cold unless `--warm-many`). From each run directory's
 summary.json: the seconds from process start and of training until the delivered policy was
 solved (`solved_process_s`, `solved_wall_s`), and its confirmed return; then the delivered
@@ -88,7 +89,8 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=list(range(10)))
     parser.add_argument("--many", type=int, default=32, help="seeds of the one many-seed run")
     parser.add_argument("--episodes", type=int, default=10)
-    parser.add_argument("--cold", action="store_true", help="also one run from an empty cache")
+    parser.add_argument("--cold", type=int, nargs="?", const=1, default=0, metavar="N",
+                        help="also N runs (default 1), each from an empty cache")
     parser.add_argument("--warm-many", action="store_true",
                         help="run the many-seed run twice and report the second (warm cache)")
     parser.add_argument("--name", default=None, help="results file: benchmarks/results/NAME.json "
@@ -130,13 +132,22 @@ def main() -> None:
                           "return": scores, "at_least_950": sum(s >= 950 for s in scores)}
         print(json.dumps(result["many"]), flush=True)
     if args.cold:
-        out = os.path.join(root, "cold")
-        summary = train(out, cache_dir=tempfile.mkdtemp(prefix="cache-", dir=root))
-        result["cold"] = {"solved_process_s": summary["solved_process_s"][0],
+        colds = []
+        for i in range(args.cold):
+            out = os.path.join(root, f"cold{i}")
+            summary = train(out, cache_dir=tempfile.mkdtemp(prefix="cache-", dir=root))
+            colds.append({"solved_process_s": summary["solved_process_s"][0],
                           "compile_s": summary["compile_s"],
                           "process_wall_s": summary["process_wall_s"],
-                          "gymnasium_return": gymnasium_scores(out, 1, args.episodes)[0]}
-        print(json.dumps(result["cold"]), flush=True)
+                          "gymnasium_return": gymnasium_scores(out, 1, args.episodes)[0]})
+            print(json.dumps(colds[-1]), flush=True)
+        median = lambda key: float(np.median([np.inf if c[key] is None else c[key]
+                                              for c in colds]))
+        result["cold"] = {"solved_process_s": median("solved_process_s"),
+                          "compile_s": median("compile_s"),
+                          "process_wall_s": median("process_wall_s"),
+                          "gymnasium_return": min(c["gymnasium_return"] for c in colds),
+                          "runs": colds}
     runs = result["runs"]
     if runs:  # an unsolved run counts as never solved
         times = [np.inf if r["solved_process_s"] is None else r["solved_process_s"] for r in runs]
