@@ -107,3 +107,26 @@ def test_a_program_split_over_devices_is_stored_and_read_back():
     calls give exactly what `seeds_program` gives, each result split over both devices."""
     check = run_parallel_checks("cached")["cached"]
     assert check == {"traces": 1, "files": 1, "equal": [True, True], "devices": [2, 2]}
+
+
+@pytest.mark.parametrize("backend", ["cpu", "gpu"])
+def test_compiler_options_per_backend_and_environment(monkeypatch, backend):
+    """On a CPU, MuJoCo environments compile with MUJOCO_CPU_COMPILER_OPTIONS; elsewhere, and
+    any other environment, with XLA's defaults."""
+    from types import SimpleNamespace
+
+    from sac_jax import compilation_cache as cc
+
+    monkeypatch.setattr(jax, "default_backend", lambda: backend)
+    mujoco, other = SimpleNamespace(simulates_mujoco=True), SimpleNamespace(simulates_mujoco=False)
+    expected = cc.MUJOCO_CPU_COMPILER_OPTIONS if backend == "cpu" else {}
+    assert cc.compiler_options(mujoco) == expected and cc.compiler_options(other) == {}
+
+
+def test_every_compiler_option_is_one_this_xla_knows():
+    """A compile accepts the options and refuses a name XLA does not know."""
+    from sac_jax import compilation_cache as cc
+
+    jax.jit(lambda x: x + 1).lower(1.0).compile(compiler_options=cc.MUJOCO_CPU_COMPILER_OPTIONS)
+    with pytest.raises(Exception, match="xla_cpu_no_such_option"):
+        jax.jit(lambda x: x + 2).lower(1.0).compile(compiler_options={"xla_cpu_no_such_option": 1})
