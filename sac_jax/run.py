@@ -152,6 +152,15 @@ def first_non_finite(flags, first: Optional[Sequence[Optional[str]]] = None) -> 
     return f"{(named or names)[0]} of seed {seed}"
 
 
+def non_finite_name(sac, codes: np.ndarray, fields: Sequence[str]) -> str:
+    """What a run names when a seed's `RunnerState.non_finite` code (one per seed in `codes`,
+    1 + an index in `fields`) is set: the array `first_non_finite` finds in `sac`, or, where no
+    array of `sac` holds a NaN or an infinity any more, the field the code gives."""
+    first = [fields[c - 1] if c else None for c in codes]
+    lowest = int(np.argmax(np.asarray(codes) != 0))
+    return first_non_finite(_finite_flags(sac), first) or f"{first[lowest]} of seed {lowest}"
+
+
 def compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...] = ()):
     """`_compiled_program` (kept per (config, seeds, swept), however they are passed)."""
     return _compiled_program(config, seeds, tuple(swept))
@@ -337,11 +346,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         # (median of 7 alternated pairs, 2 CPU cores)
         codes = np.broadcast_to(jax.device_get(runner.non_finite), (seeds,))
         if codes.any():
-            fields = non_finite_fields(config)
-            first = [fields[c - 1] if c else None for c in codes]
-            lowest = int(np.argmax(codes != 0))
-            bad = (first_non_finite(_finite_flags(runner.sac), first)
-                   or f"{first[lowest]} of seed {lowest}")  # where the NaN has since gone
+            bad = non_finite_name(runner.sac, codes, non_finite_fields(config))
             steps = int(runner.iteration) * config.num_envs
             if stop_on_non_finite:
                 status, message = NON_FINITE, (f"non-finite {bad} between environment steps "

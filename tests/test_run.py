@@ -65,6 +65,18 @@ def test_the_first_non_finite_array_is_named_with_its_seed():
     assert run.first_non_finite(flags(both), [None, "log_alpha"]) == "log_alpha of seed 1"
 
 
+def test_a_set_code_names_the_array_or_else_its_field():
+    _, init, _, _ = run.compiled_program(CONFIG, 2)
+    sac = init(jax.random.split(jax.random.key(0), 2)).sac
+    fields = train.non_finite_fields(CONFIG)
+    code = np.array([0, fields.index("log_alpha") + 1])
+    bad = sac.replace(log_alpha=sac.log_alpha.at[1].set(jnp.nan))
+    assert run.non_finite_name(bad, code, fields) == "log_alpha of seed 1"
+    # a NaN the next updates overwrote: the code still names the field
+    assert run.non_finite_name(sac, code, fields) == "log_alpha of seed 1"
+    assert run.non_finite_name(sac, np.array([1, 0]), fields) == f"{fields[0]} of seed 0"
+
+
 def test_the_field_that_goes_non_finite_first_is_recorded_in_update_order():
     """`RunnerState.non_finite` names, of the fields an update writes, the first (in the
     update's order) holding a NaN after the first update that made any non-finite."""
