@@ -24,27 +24,37 @@
               on average (min 841.8) against 850.0 (825.1) without, and 861.1 with 256-wide
               networks in 14 % more time
     PendulumSwingup  CartpoleSwingup's settings with 256-wide networks, learning rates 1e-3, a
-              starting temperature of 0.1 and 409,600 steps evaluated every 8,192, for a GPU
-              (on 2 CPU cores about half an hour); no stop at the task's solved return (300):
-              most seeds go on to deliver over 600. On an H100 (`benchmarks/preset_search.py`),
-              against the same without the last two (learning rates 3e-3, temperature 1): 8
-              seeds delivered 588.3 on average (6 of 8 at 630 or more) against 516.5, and 16
-              other seeds 582.0 (13 of 16 at 265.5 or more) against 465.3 (12 of 16)
-              (`preset_search-PendulumSwingup-alpha-h100.json`, `-alpha16-h100.json`);
-              256-wide networks had delivered 290 against 156 with 64-wide ones (8 seeds,
-              H200). SAC in TD-MPC2's baselines: 354 after 1M steps.
-              16 seeds vmapped take 1.9x one seed's time per chunk on an H100 (2.75 s against
-              1.45 s): the same kernels, each about twice as long, the update's 256-wide
-              matrix products most (`profile_chunk-PendulumSwingup-h100.json`)
+              starting temperature of 0.1, 32 environments and 819,200 steps evaluated every
+              16,384, for a GPU; no stop at the task's solved return (300): most seeds go on
+              to deliver over 500. On an H100 (`benchmarks/preset_search.py`), against the
+              same without the last two (learning rates 3e-3, temperature 1), 8 environments
+              and 409,600 steps each: 8 seeds delivered 588.3 on average (6 of 8 at 630 or
+              more) against 516.5, and 16 other seeds 582.0 (13 of 16 at 265.5 or more)
+              against 465.3 (12 of 16) (`preset_search-PendulumSwingup-alpha-h100.json`,
+              `-alpha16-h100.json`); 256-wide networks had delivered 290 against 156 with
+              64-wide ones (8 seeds, H200). 32 environments instead of 8 step 4x as far per
+              iteration at about the same cost (its 4 updates dominate): 8 seeds delivered
+              505.3 on average (min 205.7) after 819,200 steps in 64.6 s, against 532.0 (min
+              50.2) after 409,600 in 114.2 s (`preset_search-PendulumSwingup-envs32-h100.json`),
+              and 16 seeds vmapped were all confirmed at Playground SAC's final 38.9 within
+              443,392 steps, in 1.35x one seed's time (`playground_peer-PendulumSwingup-h100.json`),
+              where with 8 environments 1 of 16 was not within 409,600 steps
+              (`preset_search-PendulumSwingup-envs32-target16-h100.json`).
+              SAC in TD-MPC2's baselines: 354 after 1M steps. 16 seeds vmapped take 1.9x one
+              seed's time per chunk on an H100 (8 environments: 2.75 s against 1.45 s): the
+              same kernels, each about twice as long, the update's 256-wide matrix products
+              most (`profile_chunk-PendulumSwingup-h100.json`)
     AcrobotSwingup  PendulumSwingup's with Playground SAC's scale: 128 environments, 8
-              updates per step, batch 512, tau 0.005 and 8,192 steps before learning, and a
-              starting temperature of 1 (a GPU preset; no solved return set): 8 seeds on an H200
-              delivered 20.3 on average in 52 s, against 15.4 in 144 s with PendulumSwingup's
-              own (`benchmarks/preset_search.py`). Its seeds differ widely: of 16 on an H100, 1
+              updates per step, batch 512, tau 0.005 and 8,192 steps before learning, a
+              starting temperature of 1, and 409,600 steps evaluated every 8,192 (a GPU preset;
+              no solved return set): 8 seeds on an H200 delivered 20.3 on average in 52 s,
+              against 15.4 in 144 s with 8 environments and 4 updates per step
+              (`benchmarks/preset_search.py`). Its seeds differ widely: of 16 on an H100, 1
               or 2 were not confirmed at Playground SAC's final 12.3 within 409,600 steps, with
               these settings (the lowest delivered 8.5), 64 environments (7.0), a starting
               temperature of 0.1 (8.5) or 16 updates per step (11.6, in 1.7x the training
-              time; `preset_search-AcrobotSwingup-h100.json`)
+              time; `preset_search-AcrobotSwingup-h100.json`), and 1 of 16 within 819,200
+              steps (8.9; `preset_search-AcrobotSwingup-budget-h100.json`)
 """
 
 from sac_jax.config import SACConfig
@@ -91,10 +101,11 @@ PRESETS["CartpoleSwingup"] = PRESETS["fast"].replace(
     env="playground/CartpoleSwingup", total_steps=204_800, buffer_size=204_800, eval_every=4_096,
     critic_layer_norm=True, stop_return=850.0)
 PRESETS["PendulumSwingup"] = PRESETS["CartpoleSwingup"].replace(
-    env="playground/PendulumSwingup", total_steps=409_600, buffer_size=409_600, eval_every=8_192,
-    actor_hidden=(256, 256), critic_hidden=(256, 256), actor_lr=1e-3, critic_lr=1e-3,
-    alpha_init=0.1, stop_when_solved=False, stop_return=None)
+    env="playground/PendulumSwingup", num_envs=32, total_steps=819_200, buffer_size=819_200,
+    eval_every=16_384, actor_hidden=(256, 256), critic_hidden=(256, 256), actor_lr=1e-3,
+    critic_lr=1e-3, alpha_init=0.1, stop_when_solved=False, stop_return=None)
 PRESETS["AcrobotSwingup"] = PRESETS["PendulumSwingup"].replace(
     env="playground/AcrobotSwingup", num_envs=128, updates_per_step=8, batch_size=512,
-    tau=0.005, learning_starts=8_192, alpha_init=1.0)
+    total_steps=409_600, buffer_size=409_600, eval_every=8_192, tau=0.005,
+    learning_starts=8_192, alpha_init=1.0)
 DEFAULT_PRESET = "fast"
