@@ -44,17 +44,20 @@
               seed's time per chunk on an H100 (8 environments: 2.75 s against 1.45 s): the
               same kernels, each about twice as long, the update's 256-wide matrix products
               most (`profile_chunk-PendulumSwingup-h100.json`)
-    AcrobotSwingup  PendulumSwingup's with Playground SAC's scale: 128 environments, 8
-              updates per step, batch 512, tau 0.005 and 8,192 steps before learning, a
-              starting temperature of 1, and 409,600 steps evaluated every 8,192 (a GPU preset;
-              no solved return set): 8 seeds on an H200 delivered 20.3 on average in 52 s,
-              against 15.4 in 144 s with 8 environments and 4 updates per step
-              (`benchmarks/preset_search.py`). Its seeds differ widely: of 16 on an H100, 1
-              or 2 were not confirmed at Playground SAC's final 12.3 within 409,600 steps, with
-              these settings (the lowest delivered 8.5), 64 environments (7.0), a starting
-              temperature of 0.1 (8.5) or 16 updates per step (11.6, in 1.7x the training
-              time; `preset_search-AcrobotSwingup-h100.json`), and 1 of 16 within 819,200
-              steps (8.9; `preset_search-AcrobotSwingup-budget-h100.json`)
+    AcrobotSwingup  PendulumSwingup's with Playground SAC's updates: 8 per step, batch 512,
+              tau 0.005, 8,192 steps before learning, a starting temperature of 1, and
+              observation normalisation, over 256 environments for 4,096,000 steps evaluated
+              every 8,192 (a GPU preset; no solved return set). Chosen on an H100
+              (`benchmarks/preset_search.py`, 16 seeds; Playground SAC's final return was 12.3
+              in one run of it and 118.8 in another, `playground_peer-AcrobotSwingup-h100.json`):
+              with 128 environments and 409,600 steps 1 or 2 seeds were not confirmed at 12.3,
+              whatever the environments (64), starting temperature (0.1) or updates per step
+              (16) (`preset_search-AcrobotSwingup-h100.json`), nor 1 with 819,200 steps
+              (`-budget-h100.json`); 256 environments confirmed all 16 at 12.3 within 688,128
+              steps in 52.1 s (`-envs256-h100.json`). Over 4,096,000 steps, normalised
+              observations delivered 64.4 on average (lowest 28.7; 2 seeds over 118.8) in
+              180.4 s, against 38.1 (15.6; 1 seed) in 166.2 s without (`-norm-h100.json`,
+              `-4m-h100.json`; both with 256 environments, the preset's then)
 """
 
 from sac_jax.config import SACConfig
@@ -105,7 +108,7 @@ PRESETS["PendulumSwingup"] = PRESETS["CartpoleSwingup"].replace(
     eval_every=16_384, actor_hidden=(256, 256), critic_hidden=(256, 256), actor_lr=1e-3,
     critic_lr=1e-3, alpha_init=0.1, stop_when_solved=False, stop_return=None)
 PRESETS["AcrobotSwingup"] = PRESETS["PendulumSwingup"].replace(
-    env="playground/AcrobotSwingup", num_envs=128, updates_per_step=8, batch_size=512,
-    total_steps=409_600, buffer_size=409_600, eval_every=8_192, tau=0.005,
-    learning_starts=8_192, alpha_init=1.0)
+    env="playground/AcrobotSwingup", num_envs=256, updates_per_step=8, batch_size=512,
+    total_steps=4_096_000, buffer_size=4_096_000, eval_every=8_192, tau=0.005,
+    learning_starts=8_192, alpha_init=1.0, normalize_observations=True)
 DEFAULT_PRESET = "fast"
