@@ -25,21 +25,20 @@
               networks in 14 % more time
     PendulumSwingup  CartpoleSwingup's settings with 256-wide networks, learning rates 1e-3, a
               starting temperature of 0.1, 32 environments and 819,200 steps evaluated every
-              16,384, for a GPU; no stop at the task's solved return (300): most seeds go on
-              to deliver over 500. On an H100 (`benchmarks/preset_search.py`), against the
-              same without the last two (learning rates 3e-3, temperature 1), 8 environments
-              and 409,600 steps each: 8 seeds delivered 588.3 on average (6 of 8 at 630 or
-              more) against 516.5, and 16 other seeds 582.0 (13 of 16 at 265.5 or more)
-              against 465.3 (12 of 16) (`preset_search-PendulumSwingup-alpha-h100.json`,
-              `-alpha16-h100.json`); 256-wide networks had delivered 290 against 156 with
-              64-wide ones (8 seeds, H200). 32 environments instead of 8 step 4x as far per
-              iteration at about the same cost (its 4 updates dominate): 8 seeds delivered
-              505.3 on average (min 205.7) after 819,200 steps in 64.6 s, against 532.0 (min
-              50.2) after 409,600 in 114.2 s (`preset_search-PendulumSwingup-envs32-h100.json`),
-              and 16 seeds vmapped were all confirmed at Playground SAC's final 38.9 within
-              443,392 steps, in 1.35x one seed's time (`playground_peer-PendulumSwingup-h100.json`),
-              where with 8 environments 1 of 16 was not within 409,600 steps
-              (`preset_search-PendulumSwingup-envs32-target16-h100.json`).
+              16,384, for a GPU; no stop at the task's solved return (300). On an H100
+              (`benchmarks/preset_search.py`), with 8 environments and 409,600 steps, learning
+              rates 1e-3 and a temperature of 0.1 against 3e-3 and 1: 8 seeds delivered 588.3
+              on average (6 of 8 at 630 or more) against 516.5, and 16 other seeds 582.0 (13 of
+              16 at 265.5 or more) against 465.3 (12 of 16)
+              (`preset_search-PendulumSwingup-alpha-h100.json`, `-alpha16-h100.json`);
+              256-wide networks had delivered 290 against 156 with 64-wide ones (8 seeds,
+              H200). 32 environments instead of 8 step 4x as far per iteration at about the
+              same cost (its 4 updates dominate): 8 seeds delivered 505.3 on average (6 of 8
+              over 300, lowest 205.7) after 819,200 steps in 64.6 s, against 532.0 (5 of 8,
+              lowest 50.2) after 409,600 in 114.2 s (`-envs32-h100.json`), and 16 seeds vmapped
+              were all confirmed at Playground SAC's final 38.9 within 443,392 steps, in 1.35x
+              one seed's time (`playground_peer-PendulumSwingup-h100.json`), where with 8
+              environments 1 of 16 was not within 409,600 steps (`-envs32-target16-h100.json`).
               SAC in TD-MPC2's baselines: 354 after 1M steps. 16 seeds vmapped take 1.9x one
               seed's time per chunk on an H100 (8 environments: 2.75 s against 1.45 s): the
               same kernels, each about twice as long, the update's 256-wide matrix products
