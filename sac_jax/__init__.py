@@ -4,7 +4,8 @@ Public API: `SACConfig`, `PRESETS`, `make_agent`, `Agent`, `SACState`, the updat
 (`update_critic`, `update_actor`, `update_temperature`, `update_value`, `polyak_update`,
 `sac_update`, `sample_noise`) and the objectives they differentiate (`critic_objective`,
 `actor_objective`, `value_objective`), the losses module, the replay buffer module, `evaluate`,
-`make_train` and its replay of recorded random draws (`Draws`, `record_draws`, `replay`), and
+`make_train` and its replay of recorded random draws (`Draws`, `record_draws`, `replay`), the
+hyperparameters it takes as arrays to train many settings in one program (`hyperparams`), and
 `load_policy` (a run directory's trained policy as a numpy function).
 """
 
@@ -25,8 +26,8 @@ from sac_jax.updates import (actor_objective, critic_objective, polyak_update, s
 __all__ = [
     "Agent", "DEFAULT_PRESET", "Draws", "METRIC_NAMES", "PRESETS", "ReplayBuffer", "RunnerState",
     "SACConfig", "SACState", "SavedPolicy", "Transition", "actor_objective", "critic_objective",
-    "enable_compilation_cache", "evaluate", "load_policy", "losses", "make_agent", "make_train",
-    "polyak_update", "record_draws", "replay", "replay_buffer", "sac_update", "sample_noise",
-    "update_actor",
-    "update_critic", "update_temperature", "update_value", "value_objective",
+    "enable_compilation_cache", "evaluate", "hyperparams", "load_policy", "losses", "make_agent",
+    "make_train", "polyak_update", "record_draws", "replay", "replay_buffer", "sac_update",
+    "sample_noise", "update_actor", "update_critic", "update_temperature", "update_value",
+    "value_objective",
 ]
