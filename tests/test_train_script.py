@@ -285,7 +285,8 @@ def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs, capsys):
     compiled = capsys.readouterr().out.splitlines()[1]
     assert compiled.startswith("compiling the programs (") and compiled.endswith(" s"), compiled
     summary = json.load(open(os.path.join(runs["stopped"], "summary.json")))
-    assert summary["compile_s"] >= float(compiled.split()[-2])  # both runs' compiles
+    # both runs' compiles, against this run's printed to 0.1 s
+    assert summary["compile_s"] >= float(compiled.split()[-2]) - 0.05
     assert _metrics(runs["stopped"]) == _metrics(runs["whole"])
     resumed, whole = _checkpoint_arrays(runs["stopped"]), _checkpoint_arrays(runs["whole"])
     assert len(resumed) == len(whole)
