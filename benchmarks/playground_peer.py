@@ -9,6 +9,9 @@
 (b) Ours: `run_training` on `playground/<task>` with the task's preset (or `--preset`), its
     budget `--total-steps`, stopping each seed once its delivered actor is confirmed at the
     peer's final return, for 1 seed and for `--seeds` seeds vmapped in one program.
+    `--peer-from FILE` takes (a) from an earlier result of the same task instead of running it
+    (recorded as `peer_from`: the file's command and date), for when both sides do not fit one
+    job's time limit: run it on the same machine, still held, as the earlier job.
 
 Per run: wall time from the trainer's call, the evaluation points (env steps, return, seconds),
 and for ours the seconds and env steps at which the delivered actor's confirmed return first
@@ -25,6 +28,8 @@ from __future__ import annotations
 
 import argparse
 import functools
+import json
+import os
 import sys
 import time
 
@@ -101,6 +106,9 @@ def main() -> None:
                              "peer's final return")
     parser.add_argument("--peer-steps", type=int, default=None,
                         help="the peer's budget (default: its config's num_timesteps)")
+    parser.add_argument("--peer-from", default=None, metavar="FILE",
+                        help="take the peer's run from this earlier playground_peer result of "
+                             "the same task instead of running it")
     parser.add_argument("--quick", action="store_true", help="tiny runs (figures meaningless)")
     args = parser.parse_args()
     source = provenance()
@@ -117,7 +125,21 @@ def main() -> None:
                          num_eval_envs=4, grad_updates_per_step=1)
         config = config.replace(total_steps=3072, buffer_size=3072, eval_every=1024)
 
-    peer = run_peer(args.task, arguments, args.seed)
+    peer_from = None
+    if args.peer_from:
+        with open(args.peer_from) as f:
+            earlier = json.load(f)
+        if earlier["result"]["task"] != args.task:
+            parser.error(f"--peer-from {args.peer_from} is a run of "
+                         f"{earlier['result']['task']}, not {args.task}")
+        peer = earlier["result"]["peer"]
+        arguments, network = earlier["result"]["peer_arguments"], earlier["result"]["peer_network"]
+        peer_from = dict(file=os.path.basename(args.peer_from),
+                         command=earlier["provenance"].get("command"),
+                         date=earlier["provenance"].get("date"))
+    else:
+        network = dict(arguments["network_factory"].keywords)
+        peer = run_peer(args.task, arguments, args.seed)
     target = peer["final_return"]
     ours = {n: run_ours(config, n, args.seed, target) for n in sorted({1, args.seeds})}
     one = ours[1]["to_peer_final"]
@@ -125,8 +147,8 @@ def main() -> None:
     result = dict(
         task=args.task, preset=preset, quick=args.quick, seed=args.seed,
         peer_arguments={k: v for k, v in arguments.items() if k != "network_factory"},
-        peer_network=dict(arguments["network_factory"].keywords),
-        peer=peer, ours={str(n): run for n, run in ours.items()},
+        peer_network=network,
+        peer=peer, peer_from=peer_from, ours={str(n): run for n, run in ours.items()},
         ours_over_peer_time=None if one is None else round(one["seconds"] / peer["wall_s"], 3),
         seeds_over_one_time=(None if None in (one, many)
                              else round(many["seconds"] / one["seconds"], 3)))
