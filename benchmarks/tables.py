@@ -577,7 +577,7 @@ def playground_peer() -> str:
         earlier = r.get("peer_from")  # the peer ran in an earlier job on the same machine
         return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}",
                  f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps"
-                 + (f" (the job before, {earlier['date'][:16]})" if earlier else ""), reached(one),
+                 + (f" (an earlier job, {earlier['date'][:16]})" if earlier else ""), reached(one),
                  f"{many['seeds']}: {reached(many)}",
                  "-" if r["ours_over_peer_time"] is None else f"{r['ours_over_peer_time']:.2f}x",
                  "-" if r["seeds_over_one_time"] is None else f"{r['seeds_over_one_time']:.2f}x"]]

@@ -47,8 +47,8 @@
               tau 0.005, 8,192 steps before learning, a starting temperature of 1, and
               observation normalisation, over 256 environments for 4,096,000 steps evaluated
               every 8,192 (a GPU preset; no solved return set). Chosen on an H100
-              (`benchmarks/preset_search.py`, 16 seeds; Playground SAC's final return was 12.3
-              in one run of it and 118.8 in another, `playground_peer-AcrobotSwingup-h100.json`):
+              (`benchmarks/preset_search.py`, 16 seeds; Playground SAC's final return was 12.3,
+              118.8 and 65.9 in three runs of it, `playground_peer-AcrobotSwingup-h100.json`):
               with 128 environments and 409,600 steps 1 or 2 seeds were not confirmed at 12.3,
               whatever the environments (64), starting temperature (0.1) or updates per step
               (16) (`preset_search-AcrobotSwingup-h100.json`), nor 1 with 819,200 steps
@@ -56,7 +56,9 @@
               steps in 52.1 s (`-envs256-h100.json`). Over 4,096,000 steps, normalised
               observations delivered 64.4 on average (lowest 28.7; 2 seeds over 118.8) in
               180.4 s, against 38.1 (15.6; 1 seed) in 166.2 s without (`-norm-h100.json`,
-              `-4m-h100.json`; both with 256 environments, the preset's then)
+              `-4m-h100.json`; both with 256 environments, the preset's then). For one seed
+              512 environments or 4 updates per step were no faster to 65.9 (neither reached
+              it in 4,096,000 steps, `-speed1-h100.json`)
 """
 
 from sac_jax.config import SACConfig
