@@ -17,19 +17,25 @@
               alike near the top: on an H100 all of 32 seeds vmapped were confirmed at 993.8
               (Playground SAC's final return) within 38,912 steps with it, and not within 61,440
               without it (`benchmarks/preset_search.py --target 993.8`)
-    CartpoleSwingup  `fast`'s settings on Playground's swing-up with critic layer norm, a budget
-              of 204,800 steps evaluated every 4,096, stopping a seed once confirmed at 850
-              (solved: 800; SAC in TD-MPC2's baselines scores 839 after 1M steps). Chosen by
-              `benchmarks/preset_search.py` (8 seeds on an H200): layer norm delivered 863.7
-              on average (min 841.8) against 850.0 (825.1) without, and 861.1 with 256-wide
-              networks in 14 % more time
-    PendulumSwingup  CartpoleSwingup's settings with 256-wide networks, learning rates 1e-3, a
-              starting temperature of 0.1, 32 environments and 819,200 steps evaluated every
-              16,384, for a GPU; no stop at the task's solved return (300). On an H100
-              (`benchmarks/preset_search.py`), with 8 environments and 409,600 steps, learning
-              rates 1e-3 and a temperature of 0.1 against 3e-3 and 1: 8 seeds delivered 588.3
-              on average (6 of 8 at 630 or more) against 516.5, and 16 other seeds 582.0 (13 of
-              16 at 265.5 or more) against 465.3 (12 of 16)
+    CartpoleSwingup  `fast`'s settings on Playground's swing-up with critic layer norm, 256-wide
+              networks, 32 environments, a budget of 819,200 steps evaluated every 16,384 over
+              20 episodes, stopping a seed once confirmed at 850 (solved: 800; SAC in TD-MPC2's
+              baselines scores 839 after 1M steps), for a GPU. Chosen by
+              `benchmarks/preset_search.py` on an H100 against Playground SAC's final return
+              (858.1): of 16 seeds vmapped, all were confirmed at it within 787,456 steps (90.1 s)
+              with these settings; 12 with 5 episodes per evaluation, 13 or 15 with a target
+              entropy of -3 (64- or 256-wide), 11 with `fast`'s 64-wide networks whether over 8
+              environments and 204,800 steps or these 32 and 819,200 (`-envs32c-h100.json`,
+              `-envs32-h100.json`); evaluating every 8,192 steps instead, 14 and 15 of 16
+              reached the peer's 858.4 (`-eval8k-h100.json`). On 8 seeds (an H200) layer norm
+              had delivered 863.7 on average (min 841.8) against 850.0 (825.1) without
+    PendulumSwingup  CartpoleSwingup's settings with learning rates 1e-3, a starting temperature
+              of 0.1 and 5 episodes per evaluation (256-wide networks, 32 environments and
+              819,200 steps evaluated every 16,384, for a GPU); no stop at the task's solved
+              return (300). On an H100 (`benchmarks/preset_search.py`), with 8 environments
+              and 409,600 steps, learning rates 1e-3 and a temperature of 0.1 against 3e-3 and
+              1: 8 seeds delivered 588.3 on average (6 of 8 at 630 or more) against 516.5, and
+              16 other seeds 582.0 (13 of 16 at 265.5 or more) against 465.3 (12 of 16)
               (`preset_search-PendulumSwingup-alpha-h100.json`, `-alpha16-h100.json`);
               256-wide networks had delivered 290 against 156 with 64-wide ones (8 seeds,
               H200). 32 environments instead of 8 step 4x as far per iteration at about the
@@ -102,12 +108,12 @@ PRESETS = {
 PRESETS["CartpoleBalance"] = PRESETS["fast"].replace(env="playground/CartpoleBalance",
                                                      critic_layer_norm=True, stop_return=950.0)
 PRESETS["CartpoleSwingup"] = PRESETS["fast"].replace(
-    env="playground/CartpoleSwingup", total_steps=204_800, buffer_size=204_800, eval_every=4_096,
+    env="playground/CartpoleSwingup", num_envs=32, total_steps=819_200, buffer_size=819_200,
+    eval_every=16_384, eval_episodes=20, actor_hidden=(256, 256), critic_hidden=(256, 256),
     critic_layer_norm=True, stop_return=850.0)
 PRESETS["PendulumSwingup"] = PRESETS["CartpoleSwingup"].replace(
-    env="playground/PendulumSwingup", num_envs=32, total_steps=819_200, buffer_size=819_200,
-    eval_every=16_384, actor_hidden=(256, 256), critic_hidden=(256, 256), actor_lr=1e-3,
-    critic_lr=1e-3, alpha_init=0.1, stop_when_solved=False, stop_return=None)
+    env="playground/PendulumSwingup", eval_episodes=5, actor_lr=1e-3, critic_lr=1e-3,
+    alpha_init=0.1, stop_when_solved=False, stop_return=None)
 PRESETS["AcrobotSwingup"] = PRESETS["PendulumSwingup"].replace(
     env="playground/AcrobotSwingup", num_envs=256, updates_per_step=8, batch_size=512,
     total_steps=4_096_000, buffer_size=4_096_000, eval_every=8_192, tau=0.005,
