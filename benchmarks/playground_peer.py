@@ -77,6 +77,23 @@ def run_peer(task: str, arguments: dict, seed: int) -> dict:
     return dict(wall_s=round(time.time() - t0, 2), points=points, final_return=points[-1][1])
 
 
+def earlier_peer(path: str, task: str):
+    """(peer run, its `sac.train` arguments, its network settings, `peer_from` provenance) from
+    an earlier playground_peer result file of `task`."""
+    try:
+        with open(path) as f:
+            earlier = json.load(f)
+        result, source = earlier["result"], earlier["provenance"]
+        run = result["task"], result["peer"], result["peer_arguments"], result["peer_network"]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise ValueError(f"--peer-from {path} is not a playground_peer result "
+                         f"({type(error).__name__}: {error})") from None
+    if run[0] != task:
+        raise ValueError(f"--peer-from {path} is a run of {run[0]}, not {task}")
+    return (*run[1:], dict(file=os.path.basename(path), command=source.get("command"),
+                           date=source.get("date")))
+
+
 def run_ours(config, seeds: int, seed: int, target: float) -> dict:
     """`seeds` seeds vmapped; each stops once its delivered actor is confirmed at `target`.
     Points: (env steps, delivered return averaged over seeds, fraction stopped, seconds)."""
@@ -112,33 +129,26 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="tiny runs (figures meaningless)")
     args = parser.parse_args()
     source = provenance()
-    if not hasattr(jax, "device_put_replicated"):  # Brax 0.14.2 calls it; gone in JAX 0.10
-        jax.device_put_replicated = device_put_replicated
     preset = args.preset or args.task
     if preset not in PRESETS:
         parser.error(f"no preset {preset!r}; give --preset (one of {sorted(PRESETS)})")
     config = PRESETS[preset].replace(env=playground.PREFIX + args.task,
                                      total_steps=args.total_steps, buffer_size=args.total_steps)
-    arguments = peer_arguments(args.task, 20_000 if args.quick else args.peer_steps)
     if args.quick:
-        arguments.update(num_envs=16, batch_size=64, min_replay_size=1024, num_evals=2,
-                         num_eval_envs=4, grad_updates_per_step=1)
         config = config.replace(total_steps=3072, buffer_size=3072, eval_every=1024)
-
-    peer_from = None
     if args.peer_from:
-        with open(args.peer_from) as f:
-            earlier = json.load(f)
-        if earlier["result"]["task"] != args.task:
-            parser.error(f"--peer-from {args.peer_from} is a run of "
-                         f"{earlier['result']['task']}, not {args.task}")
-        peer = earlier["result"]["peer"]
-        arguments, network = earlier["result"]["peer_arguments"], earlier["result"]["peer_network"]
-        peer_from = dict(file=os.path.basename(args.peer_from),
-                         command=earlier["provenance"].get("command"),
-                         date=earlier["provenance"].get("date"))
+        try:
+            peer, arguments, network, peer_from = earlier_peer(args.peer_from, args.task)
+        except ValueError as error:
+            parser.error(str(error))
     else:
-        network = dict(arguments["network_factory"].keywords)
+        arguments = peer_arguments(args.task, 20_000 if args.quick else args.peer_steps)
+        if args.quick:
+            arguments.update(num_envs=16, batch_size=64, min_replay_size=1024, num_evals=2,
+                             num_eval_envs=4, grad_updates_per_step=1)
+        network, peer_from = dict(arguments["network_factory"].keywords), None
+        if not hasattr(jax, "device_put_replicated"):  # Brax 0.14.2 calls it; gone in JAX 0.10
+            jax.device_put_replicated = device_put_replicated
         peer = run_peer(args.task, arguments, args.seed)
     target = peer["final_return"]
     ours = {n: run_ours(config, n, args.seed, target) for n in sorted({1, args.seeds})}

@@ -1,0 +1,60 @@
+"""benchmarks/playground_peer.py's `--peer-from`: the peer's run taken from an earlier result
+file of the same task (when both sides exceed one device job), with its provenance kept, and a
+one-line error for a file of another task or no result at all."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import pytest
+
+from benchmarks import playground_peer
+
+PEER = {"wall_s": 274.18, "points": [[0, 3.1, 28.7], [10_000_640, 65.9, 273.1]],
+        "final_return": 65.9}
+
+
+def write_earlier(path, task="AcrobotSwingup"):
+    path.write_text(json.dumps({
+        "provenance": {"command": f"python -m benchmarks.playground_peer --task {task}",
+                       "date": "2026-11-27T17:44:50+00:00", "machine": {}},
+        "result": {"task": task, "peer": PEER, "peer_arguments": {"num_timesteps": 10_000_000},
+                   "peer_network": {"q_network_layer_norm": True}}}))
+    return str(path)
+
+
+def test_the_peer_run_and_its_provenance_come_from_the_earlier_file(tmp_path):
+    path = write_earlier(tmp_path / "playground_peer-AcrobotSwingup-h100.json")
+    peer, arguments, network, source = playground_peer.earlier_peer(path, "AcrobotSwingup")
+    assert peer == PEER
+    assert arguments == {"num_timesteps": 10_000_000}
+    assert network == {"q_network_layer_norm": True}
+    assert source == {"file": "playground_peer-AcrobotSwingup-h100.json",
+                      "command": "python -m benchmarks.playground_peer --task AcrobotSwingup",
+                      "date": "2026-11-27T17:44:50+00:00"}
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "is a run of CartpoleSwingup, not AcrobotSwingup"),
+    ('{"result": {"task": "AcrobotSwingup"}}', "is not a playground_peer result (KeyError: "),
+    ("not json", "is not a playground_peer result (JSONDecodeError: "),
+    ("", "is not a playground_peer result"),
+])
+def test_a_file_of_another_task_or_no_result_fails_in_one_line(tmp_path, monkeypatch, capsys,
+                                                                content, message):
+    path = tmp_path / "earlier.json"
+    if content is None:
+        write_earlier(path, task="CartpoleSwingup")
+    elif content:
+        path.write_text(content)
+    else:
+        path = tmp_path / "missing.json"
+    monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--task", "AcrobotSwingup",
+                                      "--peer-from", str(path)])
+    with pytest.raises(SystemExit) as raised:
+        playground_peer.main()
+    assert raised.value.code == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith(f"playground_peer.py: error: --peer-from {path} ")
+    assert message in last
