@@ -11,7 +11,7 @@
     peer's final return, for 1 seed and for `--seeds` seeds vmapped in one program.
     `--peer-from FILE` takes (a) from an earlier result of the same task instead of running it
     (recorded as `peer_from`: the file's command and date), for when both sides do not fit one
-    job's time limit: run it on the same machine, still held, as the earlier job.
+    job's time limit: run it on a machine of the earlier job's kind.
 
 Per run: wall time from the trainer's call, the evaluation points (env steps, return, seconds),
 and for ours the seconds and env steps at which the delivered actor's confirmed return first

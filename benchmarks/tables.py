@@ -574,7 +574,7 @@ def playground_peer() -> str:
             return f"{round(stopped * run['seeds'])}/{run['seeds']} reached it in {step:,} steps"
 
         peer_steps = r["peer_arguments"]["num_timesteps"]
-        earlier = r.get("peer_from")  # the peer ran in an earlier job on the same machine
+        earlier = r.get("peer_from")  # the peer ran in an earlier job (`--peer-from`)
         return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}",
                  f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps"
                  + (f" (an earlier job, {earlier['date'][:16]})" if earlier else ""), reached(one),

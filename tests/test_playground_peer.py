@@ -39,17 +39,15 @@ def test_the_peer_run_and_its_provenance_come_from_the_earlier_file(tmp_path):
     (None, "is a run of CartpoleSwingup, not AcrobotSwingup"),
     ('{"result": {"task": "AcrobotSwingup"}}', "is not a playground_peer result (KeyError: "),
     ("not json", "is not a playground_peer result (JSONDecodeError: "),
-    ("", "is not a playground_peer result"),
+    ("missing", "is not a playground_peer result (FileNotFoundError: "),
 ])
 def test_a_file_of_another_task_or_no_result_fails_in_one_line(tmp_path, monkeypatch, capsys,
                                                                 content, message):
     path = tmp_path / "earlier.json"
     if content is None:
         write_earlier(path, task="CartpoleSwingup")
-    elif content:
+    elif content != "missing":
         path.write_text(content)
-    else:
-        path = tmp_path / "missing.json"
     monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--task", "AcrobotSwingup",
                                       "--peer-from", str(path)])
     with pytest.raises(SystemExit) as raised:
