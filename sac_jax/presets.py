@@ -65,7 +65,9 @@
               180.4 s, against 38.1 (15.6; 1 seed) in 166.2 s without (`-norm-h100.json`,
               `-4m-h100.json`; both with 256 environments, the preset's then). For one seed
               512 environments or 4 updates per step were no faster to 65.9 (neither reached
-              it in 4,096,000 steps, `-speed1-h100.json`)
+              it in 4,096,000 steps, `-speed1-h100.json`); evaluating every 32,768 steps,
+              16 seeds ran 4,096,000 steps in 134.9 s against 174.5 s, but 4 reached 65.9
+              against 6, and 6 within 6,144,000 steps (`-eval32k-h100.json`)
 """
 
 from sac_jax.config import SACConfig
