@@ -28,7 +28,9 @@
               environments and 204,800 steps or these 32 and 819,200 (`-envs32c-h100.json`,
               `-envs32-h100.json`); evaluating every 8,192 steps instead, 14 and 15 of 16
               reached the peer's 858.4 (`-eval8k-h100.json`), and 50 episodes per evaluation
-              picked the same actors as 20 (`-eval50-h100.json`). On 8 seeds (an H200) layer norm
+              picked the same actors as 20 (`-eval50-h100.json`); learning rates 1e-3,
+              observation normalisation, or both, got 14, 14 and 15 of 16 to 858.4 within
+              803,840 steps (`-lrnorm-h100.json`). On 8 seeds (an H200) layer norm
               had delivered 863.7 on average (min 841.8) against 850.0 (825.1) without
     PendulumSwingup  CartpoleSwingup's settings with learning rates 1e-3, a starting temperature
               of 0.1 and 5 episodes per evaluation (256-wide networks, 32 environments and
