@@ -69,7 +69,8 @@
               512 environments or 4 updates per step were no faster to 65.9 (neither reached
               it in 4,096,000 steps, `-speed1-h100.json`); evaluating every 32,768 steps,
               16 seeds ran 4,096,000 steps in 134.9 s against 174.5 s, but 4 reached 65.9
-              against 6, and 6 within 6,144,000 steps (`-eval32k-h100.json`)
+              against 6, and 6 within 6,144,000 steps (`-eval32k-h100.json`); 20 episodes
+              per evaluation, 6 of 16 (`-eval20-h100.json`)
 """
 
 from sac_jax.config import SACConfig
