@@ -70,6 +70,17 @@ class SACConfig:
     """Episodes, from fresh initial states, of the confirmation evaluation of an actor that
     scores above the kept one: it replaces the kept (delivered) actor only if its confirmed
     return is higher too (`sac_jax.selection`)."""
+    eval_alongside: bool = False
+    """Step each evaluation point's episodes (evaluation and confirmation) alongside training,
+    one step per training iteration, batched with those of the points still under way, instead
+    of running them to their end at the point. Their returns enter the selection at the first
+    point after they have all ended, ceil(max episode steps / iterations per evaluation)
+    points later, or at the run's last point, where every evaluation under way is run to its
+    end (a run that every seed's `stop_when_solved` ends sooner leaves them unscored); the
+    outputs' evaluation fields at a point are those of the evaluation that ended there (the
+    last point's: its own actor's). For a GPU, where a step of the environment costs about
+    as much for a few episodes as for a thousand and an evaluation's steps run one after
+    another (`sac_jax.train`)."""
     stop_when_solved: bool = False
     """End a seed's learning once its delivered actor's confirmed return reaches `stop_return`;
     the run ends when every seed has stopped."""
@@ -201,7 +212,7 @@ class SACConfig:
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
                 fail(field, "must be a positive integer")
-        for field in ("stop_when_solved", "learn_alpha", "critic_layer_norm",
+        for field in ("eval_alongside", "stop_when_solved", "learn_alpha", "critic_layer_norm",
                       "normalize_observations", "separate_log_std_network"):
             if not isinstance(getattr(self, field), bool):
                 fail(field, "must be True or False")
@@ -233,6 +244,8 @@ class SACConfig:
         if self.data_parallel_axis is not None and (
                 not isinstance(self.data_parallel_axis, str) or not self.data_parallel_axis):
             fail("data_parallel_axis", "must be a non-empty axis name or None")
+        if self.eval_alongside and self.data_parallel_axis is not None:
+            fail("eval_alongside", "is not supported in a data-parallel run; set False")
         if self.last_layer_init is not None and self.last_layer_init <= 0:
             fail("last_layer_init", "must be > 0 or None")
         if self.batch_size > self.buffer_size:

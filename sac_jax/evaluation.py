@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any, Callable, NamedTuple
+
 import jax
 import jax.numpy as jnp
 
@@ -46,21 +48,40 @@ def evaluate_from(agent: Agent, env, actor_params, start) -> jax.Array:
     they give up at once: `fast`'s evaluation program compiles in 2.9-3.7 s instead of
     4.0-4.9 s (4.1-5.0 CPU-s instead of 5.1-6.0) on 2 CPU cores, with the same results.
     """
+    def running(episodes: Episodes):
+        return jnp.any(episodes.alive) & (episodes.steps < env.max_episode_steps)
+
+    act = lambda obs: agent.act(actor_params, obs)
+    return jax.lax.while_loop(running, lambda e: step_episodes(env, act, e), begin(start)).returns
+
+
+class Episodes(NamedTuple):
+    """A batch of evaluation episodes under way (leading axis: episodes): `start` their
+    initial states, `states` the current ones, `alive` (E,) bool whether each is still running,
+    `returns` (E,) float32 the rewards summed so far, `steps` () int32 steps taken."""
+
+    start: Any
+    states: Any
+    alive: jax.Array
+    returns: jax.Array
+    steps: jax.Array
+
+
+def begin(start) -> Episodes:
+    """The episodes from the batched initial `EnvState` `start`, before their first step."""
     num_episodes = start.obs.shape[0]
+    return Episodes(start, start, jnp.ones(num_episodes, bool),
+                    jnp.zeros(num_episodes, jnp.float32), jnp.int32(0))
 
-    def running(carry):
-        _, alive, _, steps = carry
-        return jnp.any(alive) & (steps < env.max_episode_steps)
 
-    def step(carry):
-        states, alive, returns, steps = carry
-        states = where_rows(alive, states, start)
-        action = jnp.where(alive[:, None], agent.act(actor_params, states.obs), 0.0)
-        states = jax.vmap(env.step)(states, action)
-        returns = returns + jnp.where(alive, states.reward, 0.0)
-        alive = alive & ~(states.terminated | states.truncated)
-        return states, alive, returns, steps + 1
-
-    init = (start, jnp.ones(num_episodes, bool), jnp.zeros(num_episodes, jnp.float32),
-            jnp.int32(0))
-    return jax.lax.while_loop(running, step, init)[2]
+def step_episodes(env, act: Callable[[jax.Array], jax.Array], episodes: Episodes) -> Episodes:
+    """One step of every episode with the deterministic actions `act(obs)` (E, action size); an
+    ended episode steps from its initial state with a zero action, and its return no longer
+    changes (see `evaluate`)."""
+    start, states, alive, returns, steps = episodes
+    states = where_rows(alive, states, start)
+    action = jnp.where(alive[:, None], act(states.obs), 0.0)
+    states = jax.vmap(env.step)(states, action)
+    returns = returns + jnp.where(alive, states.reward, 0.0)
+    alive = alive & ~(states.terminated | states.truncated)
+    return Episodes(start, states, alive, returns, steps + 1)

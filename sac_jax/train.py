@@ -10,7 +10,9 @@ One `lax.scan` runs all iterations; iteration i:
     evaluate  after every eval_every training steps: deterministic returns on separate
               environment instances, the selection of the delivered actor (`sac_jax.selection`:
               the best confirmed evaluation so far), and the period's metric means written to
-              the outputs
+              the outputs; with `eval_alongside`, the point's episodes are instead stepped once
+              per iteration beside those of the D points before it (`Pending`), and scored
+              with the selection D points later, D = ceil(episode steps / iterations per point)
     stop      with `stop_when_solved`, a seed whose delivered actor is solved learns no more:
               its learner state and delivered actor stay as they are
 
@@ -43,7 +45,7 @@ keep their keys (split from the same chain either way).
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable, Dict, NamedTuple, Optional, Tuple
+from typing import Any, Callable, Dict, NamedTuple, Optional, Tuple
 
 import flax.struct
 import jax
@@ -55,7 +57,7 @@ from sac_jax import observation_norm, selection
 from sac_jax.agent import Agent, SACState, make_agent
 from sac_jax.randomness import Draws, FromKeys, Replay, check
 from sac_jax.config import SACConfig
-from sac_jax.evaluation import evaluate_from, initial_states
+from sac_jax.evaluation import Episodes, begin, evaluate_from, initial_states, step_episodes
 from sac_jax.replay_buffer import ReplayBuffer, Transition
 from sac_jax.updates import sac_update, sample_noise
 
@@ -64,6 +66,22 @@ EVAL_NAMES = ("eval_return", "confirm_return", "delivered_return")
 """Per evaluation point: the current actor's mean return over `eval_episodes`; its confirmed
 return over `confirm_episodes` fresh episodes (NaN where it was no candidate); the confirmed
 return of the delivered actor after the point (`sac_jax.selection`)."""
+
+
+class Pending(flax.struct.PyTreeNode):
+    """The evaluations under way with `SACConfig.eval_alongside`, one slot per evaluation point
+    whose episodes are still being stepped: `actor_params` (leading axis D) the actor each
+    evaluates, `episodes` the `Episodes` of all slots in one batch, slot d's E (the
+    evaluation's, then the confirmation's) at rows d E to (d + 1) E - 1, `env_steps` (D,) int32
+    each point's environment steps, `active` (D,) bool whether the slot holds an evaluation.
+    One batch gives one vmapped environment step: a batch per slot, stepped under a `vmap`
+    over the slots, made AcrobotSwingup's two programs compile in 32.9 s instead of 27.9 s
+    (15.8 s without `eval_alongside`; 2 CPU cores, one compile each, ad hoc)."""
+
+    actor_params: Any
+    episodes: Episodes
+    env_steps: jax.Array
+    active: jax.Array
 
 
 class RunnerState(flax.struct.PyTreeNode):
@@ -76,6 +94,7 @@ class RunnerState(flax.struct.PyTreeNode):
     held a NaN or an infinity after an update (checked after every update, so the quantity
     that diverged first is named, not one it spread to); `hyperparams` {name: scalar}, the
     hyperparameters this run trains with in place of the config's (`sac_jax.hyperparams`), or
+    None; `pending` the evaluations under way (`Pending`) with `SACConfig.eval_alongside`, else
     None."""
 
     sac: SACState
@@ -89,6 +108,7 @@ class RunnerState(flax.struct.PyTreeNode):
     stopped: jax.Array
     non_finite: jax.Array
     hyperparams: Optional[Dict[str, jax.Array]] = None
+    pending: Optional[Pending] = None
 
 
 class TrainParts(NamedTuple):
@@ -184,6 +204,8 @@ def make_train_parts(config: SACConfig,
     sum_names = METRIC_NAMES + ("train_return",)
     watched = non_finite_fields(config)
     nan = jnp.float32(jnp.nan)
+    # eval_alongside: D slots, so that a point's episodes have ended D points later
+    depth = -(-env.max_episode_steps // period) if config.eval_alongside else 0
 
     # The key chain: init splits (k_sac, k_env, k_run); each iteration splits the run key into
     # (key, k_act, k_random, k_learn); each evaluation splits (key, k_eval). `record_draws`
@@ -223,24 +245,88 @@ def make_train_parts(config: SACConfig,
         axis = config.data_parallel_axis
         return jnp.mean(returns) if axis is None else jax.lax.pmean(jnp.mean(returns), axis)
 
+    def point_starts(k_eval: jax.Array):
+        """The initial states of a point's evaluation episodes, then its confirmation's (from a
+        key no other evaluation draws from): one batch, one traced copy of reset and step."""
+        return initial_states(env, jnp.concatenate([
+            jax.random.split(k_eval, config.eval_episodes),
+            jax.random.split(jax.random.fold_in(k_eval, 1), config.confirm_episodes)]))
+
+    def select(delivered, actor, returns: jax.Array, env_steps: jax.Array):
+        """The selection step (`sac_jax.selection`) on one point's returns: (kept actor,
+        evaluation return, confirmed return)."""
+        score = mean_return(returns[:config.eval_episodes])
+        kept, confirmed = selection.select(delivered, actor, score,
+                                           mean_return(returns[config.eval_episodes:]), env_steps)
+        return kept, score, confirmed
+
+    width = config.eval_episodes + config.confirm_episodes  # E, the episodes of a slot
+
+    def step_pending(agent: Agent, pending: Pending) -> Pending:
+        def act(obs):  # each slot's episodes with its actor
+            by_slot = obs.reshape((depth, width) + obs.shape[1:])
+            return jax.vmap(agent.act)(pending.actor_params, by_slot).reshape(depth * width, -1)
+
+        return pending.replace(episodes=step_episodes(env, act, pending.episodes))
+
+    def select_pending(delivered, pending: Pending, slot: jax.Array):
+        """`select` on the evaluation in `slot` if it holds one (else NaN returns)."""
+        kept, score, confirmed = select(
+            delivered, jax.tree_util.tree_map(lambda x: x[slot], pending.actor_params),
+            pending.episodes.returns.reshape(depth, width)[slot], pending.env_steps[slot])
+        keep = lambda new, old: jnp.where(pending.active[slot], new, old)
+        return (jax.tree_util.tree_map(keep, kept, delivered), keep(score, nan),
+                keep(confirmed, nan))
+
+    def evaluate_alongside(agent: Agent, runner: RunnerState, starts, index, env_steps):
+        """Scores the evaluation that has ended in this point's slot, starts this point's
+        there, and at the last point runs every evaluation under way to its end and selects
+        on them oldest first. (kept actor, evaluation return, confirmed return, pending)."""
+        slot = index % depth
+        old = runner.pending
+        delivered, score, confirmed = select_pending(runner.delivered, old, slot)
+        put = lambda rows, new: jax.lax.dynamic_update_slice_in_dim(rows, new, slot * width, 0)
+        fresh = begin(starts)
+        pending = Pending(
+            actor_params=jax.tree_util.tree_map(lambda all_, one: all_.at[slot].set(one),
+                                                old.actor_params, runner.sac.actor_params),
+            episodes=Episodes(*jax.tree_util.tree_map(put, old.episodes[:4], fresh[:4]),
+                              old.episodes.steps),
+            env_steps=old.env_steps.at[slot].set(env_steps), active=old.active.at[slot].set(True))
+
+        def drain(args):
+            delivered, _, _, pending = args
+            pending, _ = jax.lax.while_loop(
+                lambda c: jnp.any(c[0].episodes.alive) & (c[1] < env.max_episode_steps),
+                lambda c: (step_pending(agent, c[0]), c[1] + 1), (pending, jnp.int32(0)))
+
+            def fold(delivered, s):
+                delivered, score, confirmed = select_pending(delivered, pending, s)
+                return delivered, (score, confirmed)
+
+            oldest_first = (slot + 1 + jnp.arange(depth)) % depth
+            delivered, (scores, confirms) = jax.lax.scan(fold, delivered, oldest_first)
+            return (delivered, scores[-1], confirms[-1],
+                    pending.replace(active=jnp.zeros_like(pending.active)))
+
+        return jax.lax.cond(index == config.num_evals - 1, drain, lambda args: args,
+                            (delivered, score, confirmed, pending))
+
     def evaluate_period(agent: Agent, runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
         key, k_eval = jax.random.split(runner.key)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
-        actor = runner.sac.actor_params
+        actor, pending = runner.sac.actor_params, runner.pending
         with jax.named_scope("evaluate"):
-            episodes, confirm_episodes = config.eval_episodes, config.confirm_episodes
-            # the confirmation's episodes from a key no other evaluation draws from; one batch
-            # of starts and episodes: one traced copy of the environment's reset and step
-            starts = initial_states(env, jnp.concatenate([
-                jax.random.split(k_eval, episodes),
-                jax.random.split(jax.random.fold_in(k_eval, 1), confirm_episodes)]))
-            returns = evaluate_from(agent, env, actor, starts)
-            out["eval_return"] = mean_return(returns[:episodes])
-            delivered, out["confirm_return"] = selection.select(
-                runner.delivered, actor, out["eval_return"], mean_return(returns[episodes:]),
-                out["env_steps"])
+            starts = point_starts(k_eval)
+            if depth:
+                delivered, out["eval_return"], out["confirm_return"], pending = (
+                    evaluate_alongside(agent, runner, starts, index, out["env_steps"]))
+            else:
+                delivered, out["eval_return"], out["confirm_return"] = select(
+                    runner.delivered, actor, evaluate_from(agent, env, actor, starts),
+                    out["env_steps"])
         stopped = runner.stopped
         if config.stop_when_solved:
             delivered = jax.tree_util.tree_map(
@@ -252,7 +338,7 @@ def make_train_parts(config: SACConfig,
         outputs = {name: runner.outputs[name].at[index].set(out[name]) for name in out}
         sums = jax.tree_util.tree_map(jnp.zeros_like, runner.sums)
         return runner.replace(key=key, sums=sums, outputs=outputs, delivered=delivered,
-                              stopped=stopped)
+                              stopped=stopped, pending=pending)
 
     def iteration(agent: Agent, runner: RunnerState, _):
         learning = runner.iteration >= prefill
@@ -282,6 +368,10 @@ def make_train_parts(config: SACConfig,
             metrics = {name: keep(nan, m) for name, m in metrics.items()}
             code = keep(jnp.int32(0), code)
         non_finite = jnp.where(runner.non_finite == 0, code, runner.non_finite)
+        pending = runner.pending
+        if depth:
+            with jax.named_scope("evaluate"):
+                pending = step_pending(agent, pending)
         metrics["train_return"] = jnp.sum(jnp.where(step.done, step.episode_return, 0.0))
         counts = {name: jnp.isfinite(m).astype(jnp.float32) for name, m in metrics.items()}
         counts["train_return"] = jnp.sum(step.done).astype(jnp.float32)
@@ -289,7 +379,8 @@ def make_train_parts(config: SACConfig,
                        count + counts[name])
                 for name, (total, count) in runner.sums.items()}
         return runner.replace(sac=sac, env=env_state, buffer=buffer, key=key, sums=sums,
-                              iteration=runner.iteration + 1, non_finite=non_finite), None
+                              iteration=runner.iteration + 1, non_finite=non_finite,
+                              pending=pending), None
 
     def next_boundary(iterations_done: jax.Array) -> jax.Array:
         """The iteration count at which the chunk starting at `iterations_done` ends."""
@@ -332,6 +423,17 @@ def make_train_parts(config: SACConfig,
                              terminated=jnp.float32(0))
         zero = jnp.float32(0)
         sac = agent.with_hyperparams(hyperparams).init(k_sac)
+        pending = None
+        if depth:  # empty slots; their placeholder episodes have ended
+            placeholder = begin(point_starts(k_env))
+            rows = lambda x: jnp.concatenate([x] * depth)
+            pending = Pending(
+                actor_params=jax.tree_util.tree_map(
+                    lambda x: jnp.broadcast_to(x, (depth,) + x.shape), sac.actor_params),
+                episodes=Episodes(*jax.tree_util.tree_map(rows, placeholder[:2]),
+                                  jnp.zeros(depth * width, bool),
+                                  rows(placeholder.returns), placeholder.steps),
+                env_steps=jnp.zeros(depth, jnp.int32), active=jnp.zeros(depth, bool))
         return RunnerState(
             sac=sac, env=env_state, buffer=rb.init(config.buffer_size, example),
             key=k_run, iteration=jnp.int32(0), sums={name: (zero, zero) for name in sum_names},
@@ -339,7 +441,7 @@ def make_train_parts(config: SACConfig,
                      **{name: jnp.full(config.num_evals, jnp.nan, jnp.float32)
                         for name in sum_names + EVAL_NAMES}},
             delivered=selection.init(sac.actor_params), stopped=jnp.bool_(False),
-            non_finite=jnp.int32(0), hyperparams=hyperparams)
+            non_finite=jnp.int32(0), hyperparams=hyperparams, pending=pending)
 
     return TrainParts(init, advance, evaluate, config.run_iterations,
                       (prefill > 0) + config.num_evals, record_draws)

@@ -41,6 +41,7 @@ BAD_VALUES = [
     ("critic_layer_norm", 1, "True or False"),
     ("env_impl", "warp", "only MuJoCo Playground tasks"),
     ("learn_alpha", "yes", "True or False"),
+    ("eval_alongside", 1, "True or False"),
 ]
 
 
@@ -49,6 +50,11 @@ BAD_VALUES = [
 def test_bad_value_raises_naming_field_and_rule(field, value, rule):
     with pytest.raises(ValueError, match=rf"SACConfig\.{field}=.*{rule}"):
         SACConfig(**{field: value})
+
+
+def test_eval_alongside_is_refused_in_a_data_parallel_run():
+    with pytest.raises(ValueError, match=r"SACConfig\.eval_alongside=True: .*data-parallel"):
+        SACConfig(eval_alongside=True, data_parallel_axis="data")
 
 
 def test_batch_larger_than_capacity():
