@@ -79,7 +79,8 @@ def run_peer(task: str, arguments: dict, seed: int) -> dict:
 
 def earlier_peer(path: str, task: str):
     """(peer run, its `sac.train` arguments, its network settings, `peer_from` provenance) from
-    an earlier playground_peer result file of `task`."""
+    an earlier playground_peer result file of `task`: the job that ran the peer, which is the
+    file's own `peer_from` where that file took its peer from another."""
     try:
         with open(path) as f:
             earlier = json.load(f)
@@ -90,8 +91,8 @@ def earlier_peer(path: str, task: str):
                          f"({type(error).__name__}: {error})") from None
     if run[0] != task:
         raise ValueError(f"--peer-from {path} is a run of {run[0]}, not {task}")
-    return (*run[1:], dict(file=os.path.basename(path), command=source.get("command"),
-                           date=source.get("date")))
+    return (*run[1:], result.get("peer_from") or dict(
+        file=os.path.basename(path), command=source.get("command"), date=source.get("date")))
 
 
 def run_ours(config, seeds: int, seed: int, target: float) -> dict:

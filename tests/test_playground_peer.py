@@ -35,6 +35,17 @@ def test_the_peer_run_and_its_provenance_come_from_the_earlier_file(tmp_path):
                       "date": "2026-11-27T17:44:50+00:00"}
 
 
+def test_a_peer_taken_from_a_file_that_took_it_from_another_names_the_job_that_ran_it(tmp_path):
+    first = write_earlier(tmp_path / "first.json")
+    second = tmp_path / "second.json"
+    earlier = json.loads((tmp_path / "first.json").read_text())
+    earlier["provenance"]["date"] = "2026-11-28T00:32:06+00:00"
+    earlier["result"]["peer_from"] = playground_peer.earlier_peer(first, "AcrobotSwingup")[3]
+    second.write_text(json.dumps(earlier))
+    source = playground_peer.earlier_peer(str(second), "AcrobotSwingup")[3]
+    assert source["file"] == "first.json" and source["date"] == "2026-11-27T17:44:50+00:00"
+
+
 @pytest.mark.parametrize("content, message", [
     (None, "is a run of CartpoleSwingup, not AcrobotSwingup"),
     ('{"result": {"task": "AcrobotSwingup"}}', "is not a playground_peer result (KeyError: "),
