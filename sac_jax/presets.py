@@ -71,7 +71,11 @@
               it in 4,096,000 steps, `-speed1-h100.json`); evaluating every 32,768 steps,
               16 seeds ran 4,096,000 steps in 134.9 s against 174.5 s, but 4 reached 65.9
               against 6, and 6 within 6,144,000 steps (`-eval32k-h100.json`); 20 episodes
-              per evaluation, 6 of 16 (`-eval20-h100.json`)
+              per evaluation, 6 of 16 (`-eval20-h100.json`). Its evaluations are stepped
+              alongside training (`eval_alongside`): they had taken 60 % of one seed's time
+              on an H100; the same actors scored, 16 seeds ran 4,096,000 steps in 139.2 and
+              145.7 s instead of 174.5 s (`playground_peer-AcrobotSwingup-h100.json`,
+              BENCHMARKS.md)
 """
 
 from sac_jax.config import SACConfig
@@ -124,5 +128,5 @@ PRESETS["PendulumSwingup"] = PRESETS["CartpoleSwingup"].replace(
 PRESETS["AcrobotSwingup"] = PRESETS["PendulumSwingup"].replace(
     env="playground/AcrobotSwingup", num_envs=256, updates_per_step=8, batch_size=512,
     total_steps=4_096_000, buffer_size=4_096_000, eval_every=8_192, tau=0.005,
-    learning_starts=8_192, alpha_init=1.0, normalize_observations=True)
+    learning_starts=8_192, alpha_init=1.0, normalize_observations=True, eval_alongside=True)
 DEFAULT_PRESET = "fast"
