@@ -73,7 +73,8 @@ class Pending(flax.struct.PyTreeNode):
     whose episodes are still being stepped: `actor_params` (leading axis D) the actor each
     evaluates, `episodes` the `Episodes` of all slots in one batch, slot d's E (the
     evaluation's, then the confirmation's) at rows d E to (d + 1) E - 1, `env_steps` (D,) int32
-    each point's environment steps, `active` (D,) bool whether the slot holds an evaluation.
+    each point's environment steps, 0 where the slot holds no evaluation (a point has done at
+    least eval_every steps).
     One batch gives one vmapped environment step: a batch per slot, stepped under a `vmap`
     over the slots, made AcrobotSwingup's two programs compile in 32.9 s instead of 27.9 s
     (15.8 s without `eval_alongside`; 2 CPU cores, one compile each, ad hoc)."""
@@ -81,7 +82,11 @@ class Pending(flax.struct.PyTreeNode):
     actor_params: Any
     episodes: Episodes
     env_steps: jax.Array
-    active: jax.Array
+
+    @property
+    def active(self) -> jax.Array:
+        """(D,) bool: whether each slot holds an evaluation."""
+        return self.env_steps > 0
 
 
 class RunnerState(flax.struct.PyTreeNode):
@@ -292,7 +297,7 @@ def make_train_parts(config: SACConfig,
                                                 old.actor_params, runner.sac.actor_params),
             episodes=Episodes(*jax.tree_util.tree_map(put, old.episodes[:4], fresh[:4]),
                               old.episodes.steps),
-            env_steps=old.env_steps.at[slot].set(env_steps), active=old.active.at[slot].set(True))
+            env_steps=old.env_steps.at[slot].set(env_steps))
 
         def drain(args):
             delivered, _, _, pending = args
@@ -307,7 +312,7 @@ def make_train_parts(config: SACConfig,
             oldest_first = (slot + 1 + jnp.arange(depth)) % depth
             delivered, (scores, confirms) = jax.lax.scan(fold, delivered, oldest_first)
             return (delivered, scores[-1], confirms[-1],
-                    pending.replace(active=jnp.zeros_like(pending.active)))
+                    pending.replace(env_steps=jnp.zeros_like(pending.env_steps)))
 
         return jax.lax.cond(index == config.num_evals - 1, drain, lambda args: args,
                             (delivered, score, confirmed, pending))
@@ -433,7 +438,7 @@ def make_train_parts(config: SACConfig,
                 episodes=Episodes(*jax.tree_util.tree_map(rows, placeholder[:2]),
                                   jnp.zeros(depth * width, bool),
                                   rows(placeholder.returns), placeholder.steps),
-                env_steps=jnp.zeros(depth, jnp.int32), active=jnp.zeros(depth, bool))
+                env_steps=jnp.zeros(depth, jnp.int32))
         return RunnerState(
             sac=sac, env=env_state, buffer=rb.init(config.buffer_size, example),
             key=k_run, iteration=jnp.int32(0), sums={name: (zero, zero) for name in sum_names},
