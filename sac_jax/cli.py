@@ -146,16 +146,31 @@ def parse_with_preset(cls, argv: Sequence[str], description: str):
                  description=description)
 
 
-def progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
+def duration(seconds: float) -> str:
+    """`seconds` as a person reads a wait: "42 s", "12 min", "3.1 h"."""
+    if seconds < 100:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.0f} min" if seconds < 6000 else f"{seconds / 3600:.1f} h"
+
+
+def progress_line(step: int, point: dict, seeds: int, elapsed: float,
+                  total_steps: Optional[int] = None) -> str:
     """One line per evaluation point (means over seeds): the last actor's evaluation, the
     delivered (best confirmed) actor's return, training return, temperature, losses, speed; a
     value not defined at this point (e.g. no training episode ended since the last evaluation,
-    no update after every seed stopped) shows as "-". With a solved threshold it ends with how
-    many seeds' delivered actors are solved, and how many seeds have stopped learning."""
+    no update after every seed stopped) shows as "-". Given the run's `total_steps` per seed,
+    before the last point it tells the time left to the end of them at the speed so far,
+    elapsed * (total_steps - step) / step (a run whose seeds stop once solved may end sooner;
+    none once all have stopped, where the run ends).
+    With a solved threshold it ends with how many seeds' delivered actors are solved, and how
+    many seeds have stopped learning."""
     def number(name, spec):
         value = point.get(name, math.nan)
         return format(value, spec) if math.isfinite(value) else "-".rjust(len(format(0.0, spec)))
 
+    left = ""
+    if total_steps is not None and 0 < step < total_steps and point.get("stopped", 0) < 1:
+        left = f", {duration(elapsed * (total_steps - step) / step)} left"
     solved = ""
     if "solved" in point:
         solved = f" | solved {round(point['solved'] * seeds)}/{seeds}"
@@ -165,7 +180,7 @@ def progress_line(step: int, point: dict, seeds: int, elapsed: float) -> str:
             f"{number('delivered_return', '9.1f')} | train {number('train_return', '9.1f')} | "
             f"alpha {number('alpha', '.3f')} | critic {number('critic_loss', '.3g')} | actor "
             f"{number('actor_loss', '.3g')} | {step * seeds / max(elapsed, 1e-9):8.0f} steps/s "
-            f"| {elapsed:6.1f} s{solved}")
+            f"| {elapsed:6.1f} s{left}{solved}")
 
 
 class CompileNotice:

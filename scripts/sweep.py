@@ -275,7 +275,8 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
     writers = [w for w in (tensorboard, wandb_run) if w is not None]
 
     def on_point(step, means, eval_returns, elapsed):
-        print(progress_line(step, means, runs, elapsed), flush=True)
+        print(progress_line(step, means, runs, elapsed, program.config.run_steps),
+              flush=True)
         for writer in writers:
             writer.add_point(step, means, eval_returns)
 

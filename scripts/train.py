@@ -214,7 +214,7 @@ def main(argv=None) -> int:
     writers = [w for w in (tensorboard, wandb_run) if w is not None]
 
     def on_point(step, means, eval_returns, elapsed):
-        print(progress_line(step, means, info.runs, elapsed), flush=True)
+        print(progress_line(step, means, info.runs, elapsed, config.run_steps), flush=True)
         for writer in writers:
             writer.add_point(step, means, eval_returns)
 

@@ -111,6 +111,21 @@ def test_progress_line_counts_the_seeds_solved_and_stopped():
     assert "solved" not in train_script.progress_line(7168, point, 1, 1.7)
 
 
+def test_progress_line_tells_the_time_left_at_the_speed_so_far():
+    point = {"eval_return": 50.0}
+    # a quarter of 4,096,000 steps in 30 s: three quarters, 90 s, to go
+    assert train_script.progress_line(1_024_000, point, 1, 30.0, 4_096_000).endswith(
+        " 30.0 s, 90 s left")
+    assert train_script.progress_line(8192, point, 16, 30.0, 4_096_000).endswith(" 4.2 h left")
+    assert train_script.progress_line(409_600, point, 1, 40.0, 4_096_000).endswith(" 6 min left")
+    assert "left" not in train_script.progress_line(4_096_000, point, 1, 120.0, 4_096_000)
+    assert "left" not in train_script.progress_line(8192, point, 1, 30.0)
+    solved = train_script.progress_line(7168, dict(point, solved=0.0), 1, 2.0, 20480)
+    assert solved.endswith(" 2.0 s, 4 s left | solved 0/1")
+    ended = train_script.progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1, 2.0, 20480)
+    assert ended.endswith(" 2.0 s | solved 1/1, stopped 1")  # the run ends here
+
+
 def test_the_summary_line_never_prints_none():
     summary = {"delivered_return": [66.5, 1000.0], "solved_at_step": [None, 7168],
                "solved_threshold": 950.0}
