@@ -31,3 +31,10 @@ def test_python_examples_run(page, capsys):
             pytest.importorskip("mujoco_playground")
         exec(compile(block, os.path.join(ROOT, page), "exec"), {"__name__": "docs"})
     assert "eval" not in capsys.readouterr().err
+
+
+def test_the_architecture_page_names_every_module_of_the_library():
+    with open(os.path.join(ROOT, "docs", "architecture.md")) as f:
+        page = f.read()
+    modules = {os.path.basename(p) for p in glob.glob(os.path.join(ROOT, "sac_jax", "*.py"))}
+    assert sorted(m for m in modules - {"__init__.py"} if f"`{m}`" not in page) == []
