@@ -429,8 +429,8 @@ def make_train_parts(config: SACConfig,
         zero = jnp.float32(0)
         sac = agent.with_hyperparams(hyperparams).init(k_sac)
         pending = None
-        if depth:  # empty slots; their placeholder episodes have ended
-            placeholder = begin(point_starts(k_env))
+        if depth:  # empty slots; their placeholder episodes (from a key of their own) have ended
+            placeholder = begin(point_starts(jax.random.fold_in(k_env, 1)))
             rows = lambda x: jnp.concatenate([x] * depth)
             pending = Pending(
                 actor_params=jax.tree_util.tree_map(
