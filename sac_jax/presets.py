@@ -55,7 +55,7 @@
               most (`profile_chunk-PendulumSwingup-h100.json`)
     AcrobotSwingup  PendulumSwingup's with Playground SAC's updates: 8 per step, batch 512,
               tau 0.005, 8,192 steps before learning, a starting temperature of 1, and
-              observation normalisation, over 256 environments for 4,096,000 steps evaluated
+              observation normalisation, over 256 environments for 8,192,000 steps evaluated
               every 8,192 (a GPU preset; no solved return set). Chosen on an H100
               (`benchmarks/preset_search.py`, 16 seeds; Playground SAC's final return was 12.3,
               118.8 and 65.9 in three runs of it, `playground_peer-AcrobotSwingup-h100.json`):
@@ -73,9 +73,11 @@
               against 6, and 6 within 6,144,000 steps (`-eval32k-h100.json`); 20 episodes
               per evaluation, 6 of 16 (`-eval20-h100.json`). Its evaluations are stepped
               alongside training (`eval_alongside`): they had taken 60 % of one seed's time
-              on an H100; the same actors scored, 16 seeds ran 4,096,000 steps in 139.2 and
-              145.7 s instead of 174.5 s (`playground_peer-AcrobotSwingup-h100.json`,
-              BENCHMARKS.md)
+              on an H100; the same actors scored, 16 seeds ran 4,096,000 steps in 139.5 s
+              instead of 174.5 s (`playground_peer-AcrobotSwingup-h100.json`, BENCHMARKS.md).
+              Without stopping, 16 seeds delivered 62.1 on average at 4,096,000 steps and
+              96.4 at 8,192,000 (10 over Playground SAC's 65.9, 6 over its 118.8), all in
+              244.3 s (`-8m-h100.json`): hence 8,192,000
 """
 
 from sac_jax.config import SACConfig
@@ -127,6 +129,6 @@ PRESETS["PendulumSwingup"] = PRESETS["CartpoleSwingup"].replace(
     alpha_init=0.1, stop_when_solved=False, stop_return=None)
 PRESETS["AcrobotSwingup"] = PRESETS["PendulumSwingup"].replace(
     env="playground/AcrobotSwingup", num_envs=256, updates_per_step=8, batch_size=512,
-    total_steps=4_096_000, buffer_size=4_096_000, eval_every=8_192, tau=0.005,
+    total_steps=8_192_000, buffer_size=8_192_000, eval_every=8_192, tau=0.005,
     learning_starts=8_192, alpha_init=1.0, normalize_observations=True, eval_alongside=True)
 DEFAULT_PRESET = "fast"
