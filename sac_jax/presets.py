@@ -77,7 +77,9 @@
               instead of 174.5 s (`playground_peer-AcrobotSwingup-h100.json`, BENCHMARKS.md).
               Without stopping, 16 seeds delivered 62.1 on average at 4,096,000 steps and
               96.4 at 8,192,000 (10 over Playground SAC's 65.9, 6 over its 118.8), all in
-              244.3 s (`-8m-h100.json`): hence 8,192,000
+              244.3 s (`-8m-h100.json`): hence 8,192,000. Those are confirmed returns, which
+              overstate this task's policies: one seed's delivered actor, confirmed at 100.2,
+              scored 32.9 +- 99.4 over 20 fresh episodes (`scripts/evaluate.py`; BENCHMARKS.md)
 """
 
 from sac_jax.config import SACConfig
