@@ -32,6 +32,10 @@ BLOCK = re.compile(r"(<!-- generated: (\S+) -->\n)(.*?)(<!-- end generated -->)"
 
 
 PLAYGROUND_FAMILY = ("CartpoleBalance", "CartpoleSwingup", "PendulumSwingup", "AcrobotSwingup")
+REACH_NOT_ESTABLISHED = ("AcrobotSwingup",)
+"""Tasks whose reach of the peer's return counts for no target: the program's confirmed return
+that decides it overstates the delivered policy (AcrobotSwingup: confirmed at 100.2, 32.9 +-
+99.4 over 20 fresh episodes of `scripts/evaluate.py`, 2026-11-28, BENCHMARKS.md)."""
 GPUS = ("h100", "h200")  # the kinds (benchmarks/provenance.py's machine_kind) of one GPU
 
 
@@ -598,8 +602,10 @@ def _target_playground_peer():
 
     def figure(key, limit):
         values = {r["task"]: r[key] for r in results}
-        met = all(v is not None and v <= limit for v in values.values())
+        met = all(v is not None and v <= limit and task not in REACH_NOT_ESTABLISHED
+                  for task, v in values.items())
         return (", ".join(f"{task} " + ("not reached" if v is None else f"{v:.2f}x")
+                          + (" (not established)" if task in REACH_NOT_ESTABLISHED else "")
                           for task, v in values.items())
                 + ("" if complete else f" ({len(names)} of {len(PLAYGROUND_FAMILY)} tasks)"),
                 met if complete or not met else None)
