@@ -223,12 +223,12 @@ def data_parallel_metrics(outputs: Dict[str, jax.Array]) -> Dict[str, jax.Array]
     evaluates `eval_episodes`); `train_return` the mean over devices of each device's mean
     training return (NaN where no device ended an episode); update metrics are equal on all
     devices (device 0's), as are the selection's returns, averaged over all devices' episodes
-    inside the program (`confirm_return`, `delivered_return`)."""
+    inside the program (`confirm_return`, `kept_return`, `delivered_return`)."""
     returns = ("eval_return", "train_return")
     metrics = {name: jnp.nanmean(outputs[name], axis=0) for name in returns}
     metrics["env_steps"] = jnp.sum(outputs["env_steps"], axis=0)
     metrics.update({name: outputs[name][0]
-                    for name in METRIC_NAMES + ("confirm_return", "delivered_return")})
+                    for name in METRIC_NAMES + ("confirm_return", "kept_return", "delivered_return")})
     return metrics
 
 

@@ -1,19 +1,35 @@
-"""The delivered policy: each seed keeps, inside the compiled loop, the actor with the best
-confirmed evaluation so far, and what a run hands over is that actor, not the last update's.
+"""The delivered policy: each seed keeps, inside the compiled loop, the actor that has beaten
+every candidate since on the same confirmation episodes, and what a run hands over is that
+actor, not the last update's.
 
 At every evaluation point the loop evaluates the current actor on `eval_episodes` episodes
-(the score s). The kept actor has a confirmed score c* (-inf before the first point).
+(the score s), then on `confirm_episodes` episodes from fresh initial states (keys no other
+evaluation uses, the confirmed return c), and the kept actor on those same confirmation
+episodes (k). The kept actor has a kept score c* (-inf before the first point).
 
     candidate       s > c*
-    confirmation    a candidate is evaluated again on `confirm_episodes` episodes from fresh
-                    initial states (keys no other evaluation uses): the confirmed score c
-    replacement     the candidate becomes the kept actor, with c* <- c, only if c > c*
+    replacement     a candidate becomes the kept actor, with c* <- c and n <- 1, only if
+                    c > k: it beats the kept actor on the same initial states (at the first
+                    point, where nothing is kept yet, it always does)
+    re-measurement  otherwise k joins the kept actor's measurements:
+                    c* <- c* + (k - c*) / (n + 1), n <- n + 1
 
-The confirmed score is measured after the choice of candidate, on other episodes, so a lucky
-evaluation (s high by chance) is never what the kept score records: to replace the kept actor,
-a candidate must do better again on fresh initial states. A tie keeps the older actor, so a
-task whose returns saturate (1000 of 1000 on the inverted pendulum) keeps the first actor that
-reached the top.
+A lucky evaluation (s high by chance) is never what the kept score records: c is measured
+after the choice of candidate, on other episodes. And the kept score is the mean of all the
+kept actor's measurements, not the best of many confirmations, which on a task whose returns
+spread widely is biased upward (the winner's curse): on AcrobotSwingup an actor confirmed at
+100.2 by the best-of rule scored 32.9 +- 99.4 over 20 fresh episodes (BENCHMARKS.md), and its
+score kept later, better actors out. Comparing c and k on the same initial states removes the
+spread between initial states from the comparison. A tie keeps the older actor, so a task whose
+returns saturate (1000 of 1000 on the inverted pendulum) keeps the first actor that reached the
+top.
+
+With `SACConfig.eval_alongside` a point's episodes end D points later, and the kept actor they
+measured may have been replaced in between: then k is not the kept actor's (`paired` False),
+and the point neither replaces nor re-measures it. So a replacement is always decided on the
+same episodes, and after one the kept actor is re-measured from D points on. (Comparing with c*
+instead would make c* the running maximum of single confirmations again wherever replacements
+come less than D points apart.)
 
 With `SACConfig.stop_when_solved` a seed whose c* reaches `SACConfig.stop_at` (by default the
 task's solved return) stops learning: its learner state and kept actor no longer change
@@ -33,33 +49,45 @@ class Delivered(flax.struct.PyTreeNode):
     """The kept actor of one seed and how it was chosen.
 
     actor_params  parameters of the kept actor (those of the learner's actor at init)
-    score         () float32, its confirmed evaluation return c* (-inf until the first point)
+    score         () float32, its kept score c*: the mean of its n measurements (-inf until
+                  the first point)
+    count         () int32, n
     env_steps     () int32, environment steps done when it was selected (-1 until then)
     """
 
     actor_params: Any
     score: jax.Array
+    count: jax.Array
     env_steps: jax.Array
 
 
 def init(actor_params) -> Delivered:
     """Nothing selected yet: the initial actor, with score -inf."""
     return Delivered(actor_params=actor_params, score=jnp.float32(-jnp.inf),
-                     env_steps=jnp.int32(-1))
+                     count=jnp.int32(0), env_steps=jnp.int32(-1))
 
 
 def select(delivered: Delivered, actor_params, score: jax.Array, confirmed: jax.Array,
-           env_steps: jax.Array) -> Tuple[Delivered, jax.Array]:
+           kept: jax.Array, paired: jax.Array, env_steps: jax.Array
+           ) -> Tuple[Delivered, jax.Array, jax.Array]:
     """One selection step (see the module docstring): `score` is the current actor's
-    evaluation return s, `confirmed` its return c on the fresh confirmation episodes (the
-    training loop steps both sets of episodes as one batch, so c exists at every point; it
-    counts for a candidate only). Returns (the kept actor after the step, c, or NaN where the
-    actor was not a candidate)."""
-    score = score.astype(jnp.float32)
+    evaluation return s, `confirmed` its return c on the confirmation episodes, `kept` the
+    return k of the kept actor on those episodes, `paired` () bool whether k is the kept
+    actor's (the training loop steps all three sets of episodes as one batch, so c and k exist
+    at every point; `paired` is True wherever nothing is kept yet). Returns (the kept actor
+    after the step, c, or NaN where the actor was not a candidate, k, or NaN where it was not
+    the kept actor's)."""
+    score, confirmed, kept = (x.astype(jnp.float32) for x in (score, confirmed, kept))
+    nan = jnp.float32(jnp.nan)
+    measured = paired & (delivered.count > 0)  # k is the kept actor's return
     candidate = score > delivered.score
-    confirmed = jnp.where(candidate, confirmed.astype(jnp.float32), jnp.float32(jnp.nan))
-    better = candidate & (confirmed > delivered.score)
-    chosen = Delivered(actor_params=actor_params, score=confirmed,
+    better = candidate & paired & (confirmed > jnp.where(measured, kept, -jnp.inf))
+    count = delivered.count + measured
+    remeasured = delivered.replace(
+        score=jnp.where(measured, delivered.score + (kept - delivered.score) / count,
+                        delivered.score), count=count)
+    chosen = Delivered(actor_params=actor_params, score=confirmed, count=jnp.int32(1),
                        env_steps=jnp.asarray(env_steps, jnp.int32))
-    kept = jax.tree_util.tree_map(lambda new, old: jnp.where(better, new, old), chosen, delivered)
-    return kept, confirmed
+    after = jax.tree_util.tree_map(lambda new, old: jnp.where(better, new, old), chosen,
+                                   remeasured)
+    return after, jnp.where(candidate, confirmed, nan), jnp.where(measured, kept, nan)

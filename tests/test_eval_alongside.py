@@ -1,6 +1,8 @@
 """`SACConfig.eval_alongside`: evaluations stepped alongside training score the same actors on
 the same episodes as evaluations run at their point, D points later (D = ceil(max episode
-steps / iterations per evaluation)), or all at the run's last point; training is unchanged."""
+steps / iterations per evaluation)), or all at the run's last point; the kept actor measured
+beside them counts only if it is still kept then (`sac_jax.selection`); training is
+unchanged."""
 
 import jax
 import numpy as np
@@ -8,6 +10,7 @@ import pytest
 
 import sac_jax
 from sac_jax.train import make_train
+from test_selection import replay_selection
 
 # Pendulum-v1 (200-step episodes), 4 environments, 75 iterations per evaluation: D = 3
 CONFIG = sac_jax.PRESETS["pendulum"].replace(
@@ -35,21 +38,37 @@ def test_each_evaluation_ends_depth_points_later(runs):
     at_point, alongside = runs[False][1], runs[True][1]
     last = CONFIG.num_evals - 1
     assert np.all(np.isnan(alongside["eval_return"][:DEPTH]))  # none has ended yet
-    for name in ("eval_return", "confirm_return", "delivered_return"):
-        # the same actors on the same initial states; batch widths differ (float rounding)
-        np.testing.assert_allclose(alongside[name][DEPTH:last], at_point[name][:last - DEPTH],
-                                   rtol=1e-5, err_msg=name)
+    # the same actors on the same initial states; batch widths differ (float rounding)
+    np.testing.assert_allclose(alongside["eval_return"][DEPTH:last],
+                               at_point["eval_return"][:last - DEPTH], rtol=1e-5)
+    both = ~np.isnan(alongside["confirm_return"][DEPTH:last]) & ~np.isnan(
+        at_point["confirm_return"][:last - DEPTH])
+    assert both.sum() >= 2
+    np.testing.assert_allclose(alongside["confirm_return"][DEPTH:last][both],
+                               at_point["confirm_return"][:last - DEPTH][both], rtol=1e-5)
     np.testing.assert_array_equal(alongside["env_steps"], at_point["env_steps"])
     # the last point runs every evaluation under way to its end: its own actor's is the last
     np.testing.assert_allclose(alongside["eval_return"][last], at_point["eval_return"][last],
                                rtol=1e-5)
 
 
-def test_same_delivered_actor_and_unchanged_training(runs):
-    (at_point, _), (alongside, _) = runs[False], runs[True]
-    np.testing.assert_allclose(alongside.delivered.score, at_point.delivered.score, rtol=1e-5)
-    assert int(alongside.delivered.env_steps) == int(at_point.delivered.env_steps)
+def test_selection_follows_its_rules_with_and_without_the_kept_actors_returns(runs):
+    """Up to the last point (which selects on all D evaluations under way at once), the
+    delivered return follows the selection's rules on the returns reported D points late; the
+    kept actor's return was used where it was still the kept actor and not after a
+    replacement had overtaken its measurement."""
+    alongside = {name: values[DEPTH:CONFIG.num_evals - 1] for name, values in runs[True][1].items()}
+    scores, _ = replay_selection(alongside)
+    np.testing.assert_array_equal(alongside["delivered_return"], scores)
+    used = ~np.isnan(alongside["kept_return"])
+    assert used[1:].any() and not used[1:].all()
+
+
+def test_unchanged_training_and_everything_scored(runs):
+    (at_point, _), (alongside, outputs) = runs[False], runs[True]
     same = jax.tree_util.tree_map(np.array_equal, alongside.sac.actor_params,
                                   at_point.sac.actor_params)
     assert all(jax.tree_util.tree_leaves(same))
     assert not np.any(np.asarray(alongside.pending.active))  # all scored at the end
+    assert int(alongside.delivered.env_steps) in outputs["env_steps"]
+    assert float(alongside.delivered.score) == outputs["delivered_return"][-1]

@@ -1,5 +1,6 @@
-"""The delivered policy (`sac_jax.selection`): the kept actor is the one with the best confirmed
-evaluation, checked with planted evaluation values and in the training loop; with
+"""The delivered policy (`sac_jax.selection`): a candidate replaces the kept actor only by
+beating it on the same confirmation episodes, and the kept score is the mean of the kept
+actor's measurements, checked with planted evaluation values and in the training loop; with
 `stop_when_solved` a solved seed's learner and kept actor no longer change, and a run whose
 seeds have all stopped ends."""
 
@@ -22,34 +23,40 @@ CONFIG = sac_jax.PRESETS["pendulum"].replace(
 
 
 def _planted(points):
-    """Runs `select` over planted points (evaluation s, confirmation c, actor id); returns the
-    kept (actor id, score, step) after each point and the confirmations it reported."""
-    step = jax.jit(lambda kept, actor, s, c, steps: selection.select(
-        kept, actor, s, c, steps))
+    """Runs `select` over planted points (evaluation s, confirmation c, kept actor's return k,
+    whether k is the kept actor's, actor id); returns the kept (actor id, score, count, step)
+    after each point and the confirmations and kept returns it reported."""
+    step = jax.jit(selection.select)
     kept = selection.init(jnp.float32(-1.0))
     history, reported = [], []
-    for p, (s, c, actor) in enumerate(points):
-        kept, confirmed = step(kept, jnp.float32(actor), jnp.float32(s), jnp.float32(c),
-                               jnp.int32(1000 * (p + 1)))
-        history.append((float(kept.actor_params), float(kept.score), int(kept.env_steps)))
-        reported.append(float(confirmed))
+    for p, (s, c, k, paired, actor) in enumerate(points):
+        kept, confirmed, kept_return = step(
+            kept, jnp.float32(actor), jnp.float32(s), jnp.float32(c), jnp.float32(k),
+            jnp.bool_(paired), jnp.int32(1000 * (p + 1)))
+        history.append((float(kept.actor_params), float(kept.score), int(kept.count),
+                        int(kept.env_steps)))
+        reported.append((float(confirmed), float(kept_return)))
     return history, reported
 
 
-def test_a_candidate_replaces_the_kept_actor_only_when_its_confirmation_is_higher():
+def test_a_candidate_replaces_the_kept_actor_only_when_it_beats_it_on_the_same_episodes():
     history, reported = _planted([
-        (100.0, 90.0, 0),     # first point: kept with its confirmed 90
-        (80.0, 500.0, 1),     # not a candidate (80 <= 90): its high confirmation is never used
-        (1000.0, 50.0, 2),    # lucky evaluation, confirmed lower than 90: kept stays
-        (95.0, 95.0, 3),      # candidate, confirmed 95 > 90: replaces
-        (1000.0, 95.0, 4),    # confirmed 95, a tie: the older actor stays
-        (1000.0, 1000.0, 5),  # replaces
-        (1000.0, 1000.0, 6),  # s = 1000 is no longer above the kept score: not a candidate
+        (100.0, 90.0, 7.0, True, 0),    # first point: kept with its confirmed 90 (k unused)
+        (80.0, 500.0, 70.0, True, 1),   # no candidate (80 <= 90): c unused; c* <- (90 + 70) / 2
+        (1000.0, 50.0, 60.0, True, 2),  # lucky evaluation, 50 < k = 60: c* <- (160 + 60) / 3
+        (95.0, 65.0, 60.0, True, 3),    # candidate, beats the kept actor on its episodes
+        (1000.0, 70.0, 70.0, True, 4),  # a tie: the older actor stays, c* <- (65 + 70) / 2
+        (1000.0, 99.0, 9.0, False, 5),   # k is not the kept actor's: neither used nor beaten
+        (1000.0, 68.0, 60.0, True, 6),   # replaces
+        (60.0, 1.0, 2.0, True, 7),       # no candidate: c* <- (68 + 2) / 2
     ])
-    assert history == [(0, 90, 1000), (0, 90, 1000), (0, 90, 1000), (3, 95, 4000),
-                       (3, 95, 4000), (5, 1000, 6000), (5, 1000, 6000)]
-    assert np.isnan(reported[1]) and np.isnan(reported[6])
-    assert reported[2] == 50.0 and reported[4] == 95.0
+    np.testing.assert_allclose(history, [
+        (0, 90, 1, 1000), (0, 80, 2, 1000), (0, 220 / 3, 3, 1000), (3, 65, 1, 4000),
+        (3, 67.5, 2, 4000), (3, 67.5, 2, 4000), (6, 68, 1, 7000), (6, 35, 2, 7000)], rtol=1e-6)
+    confirmed, kept = np.array(reported).T
+    assert np.isnan(confirmed[[1, 7]]).all() and confirmed[2] == 50.0 and confirmed[4] == 70.0
+    np.testing.assert_array_equal(np.isnan(kept), [True, False, False, False, False, True,
+                                                   False, False])
 
 
 def test_before_any_point_nothing_is_selected():
@@ -77,25 +84,49 @@ def _points_of_a_run(config, seeds=2):
     return actors, runner, jax.device_get(runner.outputs)
 
 
-def test_the_loop_delivers_the_actor_of_its_best_confirmed_point():
-    """For each seed: the delivered return is the running maximum of the confirmed returns,
-    a confirmation ran exactly where the evaluation beat the kept score, and the delivered
-    actor is, bit for bit, the learner's actor at the point that set that maximum."""
+def replay_selection(out):
+    """The kept scores `selection.select` gives on a run's reported returns, point by point
+    (the kept actor's return counts where reported), and the index of the point whose actor
+    is kept after each point (-1 before any)."""
+    step = jax.jit(selection.select)
+    kept = selection.init(jnp.int32(-1))
+    scores, points = [], []
+    for p, (s, c, k) in enumerate(zip(out["eval_return"], out["confirm_return"],
+                                      out["kept_return"])):
+        paired = not np.isnan(k) or int(kept.count) == 0  # (nothing kept: always paired)
+        kept = step(kept, jnp.int32(p), s, c, k, jnp.bool_(paired), jnp.int32(p))[0]
+        scores.append(float(kept.score))
+        points.append(int(kept.actor_params))
+    return np.array(scores, np.float32), np.array(points)
+
+
+def test_the_loop_delivers_the_actor_its_selection_keeps():
+    """For each seed: a confirmation ran exactly where the evaluation beat the kept score, the
+    kept actor was measured at every point after the first, the delivered return follows the
+    selection's rules on the reported returns (some point of the run replaced the kept actor,
+    some re-measured it), and the delivered actor is, bit for bit, the learner's actor at the point
+    the rules keep."""
     actors, runner, out = _points_of_a_run(CONFIG)
+    kept_points = []
     for seed in range(2):
-        confirm, delivered = out["confirm_return"][seed], out["delivered_return"][seed]
-        evaluated = out["eval_return"][seed]
+        mine = {name: values[seed] for name, values in out.items()}
+        delivered = mine["delivered_return"]
         previous = np.concatenate([[-np.inf], delivered[:-1]])
-        np.testing.assert_array_equal(np.isnan(confirm), ~(evaluated > previous))
-        np.testing.assert_array_equal(
-            delivered, np.maximum.accumulate(np.where(np.isnan(confirm), -np.inf, confirm)))
-        best = int(np.argmax(delivered == delivered[-1]))  # the point that set it first
-        step = int(out["env_steps"][seed][best])
+        np.testing.assert_array_equal(np.isnan(mine["confirm_return"]),
+                                      ~(mine["eval_return"] > previous))
+        assert np.isnan(mine["kept_return"][0]) and np.isfinite(mine["kept_return"][1:]).all()
+        scores, points = replay_selection(mine)
+        np.testing.assert_array_equal(delivered, scores)
+        kept_points.append(points)
+        step = int(mine["env_steps"][points[-1]])
         assert int(runner.delivered.env_steps[seed]) == step
         assert float(runner.delivered.score[seed]) == delivered[-1]
         for kept, at_step in zip(jax.tree_util.tree_leaves(runner.delivered.actor_params),
                                  jax.tree_util.tree_leaves(actors[step])):
             np.testing.assert_array_equal(np.asarray(kept)[seed], at_step[seed])
+    kept_points = np.array(kept_points)  # a replacement and a re-measurement both happened
+    assert np.any(kept_points[:, 1:] != kept_points[:, :-1])
+    assert np.any(kept_points[:, 1:] == kept_points[:, :-1])
 
 
 @pytest.fixture

