@@ -156,7 +156,7 @@ def duration(seconds: float) -> str:
 def progress_line(step: int, point: dict, seeds: int, elapsed: float,
                   total_steps: Optional[int] = None) -> str:
     """One line per evaluation point (means over seeds): the last actor's evaluation, the
-    delivered (best confirmed) actor's return, training return, temperature, losses, speed; a
+    delivered (kept) actor's score, training return, temperature, losses, speed; a
     value not defined at this point (e.g. no training episode ended since the last evaluation,
     no update after every seed stopped) shows as "-". Given the run's `total_steps` per seed,
     before the last point it tells the time left to the end of them at the speed so far,

@@ -7,7 +7,7 @@
 The action is the deterministic a = scale * tanh(mu(s)) + bias, in the environment's units
 (within [action_low, action_high]), computed by one jitted `Agent.act` on the actor parameters
 of seed `seed` of the checkpoint (the run's state is vmapped over its seeds): by default the
-delivered actor, the one with the best confirmed evaluation (`sac_jax.selection`).
+delivered actor, the one the run kept (`sac_jax.selection`).
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def load_policy(path: str, seed: int = 0, which: Literal["best", "last"] = "best
                 ) -> SavedPolicy:
     """The deterministic policy of seed `seed` (0..seeds-1; in a sweep's run directory, run
     `seed` of the settings x seeds, setting-major) of the run directory `path`:
-    `which="best"` the delivered actor (best confirmed evaluation), `"last"` the last update's.
+    `which="best"` the delivered actor (`sac_jax.selection`), `"last"` the last update's.
 
     Reads config.json, run.json and the newest checkpoint; nothing is compiled but the policy
     (the checkpoint is checked against `jax.eval_shape` of the training state). A run written

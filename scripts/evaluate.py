@@ -57,7 +57,7 @@ class EvaluateArgs:
     episode_seed: int = 0
     """PRNG seed of the episodes' initial states."""
     policy: Literal["best", "last"] = "best"
-    """Which actor of the seed: "best", the delivered one (best confirmed evaluation), or
+    """Which actor of the seed: "best", the delivered one (`sac_jax.selection`), or
     "last", the last update's."""
     which: Optional[Literal["ours", "gymnasium", "both"]] = None
     """Environments to evaluate in (default: both where Gymnasium has the task, else ours)."""

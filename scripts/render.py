@@ -100,7 +100,7 @@ class RenderArgs:
     episode_seed: int = 0
     """PRNG seed of the episode's initial state."""
     policy: Literal["best", "last"] = "best"
-    """Which actor of the seed: "best", the delivered one (best confirmed evaluation), or
+    """Which actor of the seed: "best", the delivered one (`sac_jax.selection`), or
     "last", the last update's."""
 
     def __post_init__(self):

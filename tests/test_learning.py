@@ -1,5 +1,5 @@
 """Learning tests: each preset trains with the settings a user gets, and the policy the run
-delivers (`sac_jax.selection`: the actor of the best confirmed evaluation) must reach the
+delivers (`sac_jax.selection`: the actor it kept) must reach the
 task's solved return in Gymnasium's real environment (10 episodes from Gymnasium's own initial
 states), or, for the Bullet-style pendulum that Gymnasium lacks, in ours from initial states no
 training evaluation used."""
