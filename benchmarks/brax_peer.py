@@ -28,7 +28,7 @@ Measured per trainer, with the same clock for both:
   (jax.monitoring) during the run; nested traces are counted once.
 * solve_total_s: from the trainer's call to the first point at which the policy the trainer
   delivers is solved (950, the task's solved return, envs.spec): ours, the first point whose
-  delivered (best confirmed) actor reaches it (`sac_jax.selection`; the `fast` preset then
+  delivered (kept) actor's score reaches it (`sac_jax.selection`; the `fast` preset then
   stops); Brax, which returns its last policy, the first evaluation reaching it
   (`solve_first_eval`: optimistic, as its later evaluations may fall) and whether its last
   evaluation is solved (`final_eval_return`). solve_train_s: the same minus the compile time

@@ -69,19 +69,14 @@ def gymnasium_scores(run: str, seeds: int, episodes: int) -> list:
 def our_scores(run: str, seeds: int, episodes: int) -> list:
     """Mean return over `episodes` episodes of our InvertedPendulum-v5 (which steps as
     Gymnasium's does, tests/test_envs.py) of each seed's delivered policy, all seeds in one
-    jitted `sac_jax.evaluate`, from initial states no training evaluation drew."""
-    import jax
-
+    jitted evaluation, from initial states no training evaluation drew (`fresh_returns`)."""
     import sac_jax
+    from benchmarks.fresh_episodes import fresh_returns
     from sac_jax import run_checkpoint
 
-    policy = sac_jax.load_policy(run, 0)
+    config = sac_jax.load_policy(run, 0).config
     _, _, runner, _ = run_checkpoint.load_checkpoint(run)
-    env = policy.config.make_env()
-    evaluate = jax.jit(jax.vmap(lambda params, key: jax.numpy.mean(
-        sac_jax.evaluate(policy.agent, env, params, key, episodes))))
-    keys = jax.random.split(jax.random.key(20261125), seeds)
-    return [float(x) for x in evaluate(runner.delivered.actor_params, keys)]
+    return fresh_returns(config, runner.delivered.actor_params, episodes)
 
 
 def main() -> None:

@@ -5,6 +5,8 @@ A variant is a preset with fields replaced, given as JSON (`--variant '{"critic_
 true}'`, repeatable; `{}` is the preset itself). Per variant: the delivered return (confirmed,
 `sac_jax.selection`) of every seed at the end, the mean curve of delivered returns over the
 evaluation points, the wall time (compilation included) and the run's environment steps.
+Each seed's delivered actor is also scored over `--fresh-episodes` episodes no training
+evaluation drew (`fresh`), the return it delivers, against which its kept score can be read.
 Stopping is off unless the variant sets it, so every seed uses the whole budget; with
 `--target R` each seed stops once its delivered actor is confirmed at R, and a row also records
 when all its seeds had (`all_reached`: env steps and seconds, compilation included).
@@ -24,12 +26,13 @@ import time
 
 import numpy as np
 
+from benchmarks.fresh_episodes import fresh_returns
 from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax.presets import PRESETS
 from sac_jax.run import run_training
 
 
-def run_variant(config, seeds: int, seed: int) -> dict:
+def run_variant(config, seeds: int, seed: int, fresh_episodes: int) -> dict:
     points, reached = [], []
     t0 = time.time()
 
@@ -40,8 +43,12 @@ def run_variant(config, seeds: int, seed: int) -> dict:
             reached.append(dict(env_steps=points[-1][0], seconds=points[-1][2]))
 
     result = run_training(config, seeds=seeds, seed=seed, on_point=on_point)
+    wall_s = round(time.time() - t0, 1)
     delivered = np.asarray(result.summary["delivered_return"], np.float64)
-    return dict(wall_s=round(time.time() - t0, 1), env_steps=points[-1][0],
+    fresh = fresh_returns(config, result.state.delivered.actor_params, fresh_episodes)
+    return dict(wall_s=wall_s, env_steps=points[-1][0],
+                fresh_episodes=fresh_episodes, fresh=[round(f, 1) for f in fresh],
+                fresh_mean=round(float(np.mean(fresh)), 1),
                 delivered=[round(float(d), 1) for d in delivered],
                 delivered_mean=round(float(delivered.mean()), 1),
                 delivered_min=round(float(delivered.min()), 1),
@@ -55,6 +62,8 @@ def main() -> None:
                         help="JSON object of fields to replace (repeatable)")
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--fresh-episodes", type=int, default=100,
+                        help="episodes scoring each seed's delivered actor at the end")
     parser.add_argument("--target", type=float, default=None,
                         help="stop each seed once its delivered actor is confirmed at this "
                              "return; record when all seeds had")
@@ -65,10 +74,11 @@ def main() -> None:
     configs = [base.replace(**v) for v in args.variant]  # all validated before any run
     rows = []
     for variant, config in zip(args.variant, configs):
-        row = dict(variant=variant, **run_variant(config, args.seeds, args.seed))
+        row = dict(variant=variant, **run_variant(config, args.seeds, args.seed,
+                                                  args.fresh_episodes))
         rows.append(row)
         print(f"{json.dumps(variant)}: delivered mean {row['delivered_mean']}, min "
-              f"{row['delivered_min']} after {row['env_steps']:,} steps, {row['wall_s']} s, all "
+              f"{row['delivered_min']} (fresh episodes: mean {row['fresh_mean']}) after {row['env_steps']:,} steps, {row['wall_s']} s, all "
               f"at the target {row['all_reached']}; "
               f"curve {row['curve'][::max(1, len(row['curve']) // 8)]}", flush=True)
     task = configs[0].env.split("/")[-1]  # the first variant's environment names the file
