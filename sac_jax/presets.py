@@ -77,9 +77,11 @@
               instead of 174.5 s (`playground_peer-AcrobotSwingup-h100.json`, BENCHMARKS.md).
               Without stopping, 16 seeds delivered 62.1 on average at 4,096,000 steps and
               96.4 at 8,192,000 (10 over Playground SAC's 65.9, 6 over its 118.8), all in
-              244.3 s (`-8m-h100.json`): hence 8,192,000. Those are confirmed returns, which
-              overstate this task's policies: one seed's delivered actor, confirmed at 100.2,
-              scored 32.9 +- 99.4 over 20 fresh episodes (`scripts/evaluate.py`; BENCHMARKS.md)
+              244.3 s (`-8m-h100.json`): hence 8,192,000. Those were best-of confirmations,
+              which overstated this task's policies (one delivered actor confirmed at 100.2
+              scored 32.9 +- 99.4 over 20 fresh episodes). With the paired selection
+              (`sac_jax.selection`) 16 seeds' kept scores averaged 39.2 and their delivered
+              actors 40.1 over 100 fresh episodes each (`-paired-h100.json`, 231.2 s)
 """
 
 from sac_jax.config import SACConfig
