@@ -27,6 +27,11 @@ from sac_jax.run_dir import RunInfo, read_config, state_template
 from sac_jax.train import RunnerState
 
 CHECKPOINTS = "checkpoints"
+LAYOUT = 2
+"""The training state's layout, in each checkpoint's metadata ("layout"). 2 since the paired
+selection (2026-11-28: `Delivered.count`, the `kept_return` output, the kept actor's slots in
+`train.Pending`); a checkpoint without it holds layout 1 and is read into layout 2
+(`_layout_1`, `_from_layout_1`), so earlier runs' policies still load and their runs resume."""
 MIN_INTERVAL_S = 5.0
 """`CheckpointWriter` starts a write at most this often."""
 
@@ -96,7 +101,8 @@ def _write(run_dir: str, leaves: list, filled: int, position: Position) -> None:
     where = directory(run_dir)
     try:
         checkpoint.save(where, position.env_steps, leaves,
-                        {"position": position.to_json(), "buffer_filled": filled})
+                        {"position": position.to_json(), "buffer_filled": filled,
+                         "layout": LAYOUT})
     except Exception as error:  # OSError, or tensorstore's ValueError naming the OS error
         checkpoint.remove_partial(where)
         raise CheckpointWriteError(f"checkpoint of step {position.env_steps} in {where} "
@@ -216,6 +222,60 @@ class CheckpointWriter(BackgroundWrites):
         self.submit(self._write_newest)
 
 
+def _layout_1(template: RunnerState) -> RunnerState:
+    """The shapes of `template` (layout 2) as layout 1 stored them: no kept-score count, no
+    `kept_return` output, and with `eval_alongside` one actor and E episodes per slot (axis 1
+    of the pending arrays, after the seeds') instead of two and 2 E."""
+    pending = template.pending
+    if pending is not None:
+        half = lambda x: jax.ShapeDtypeStruct((x.shape[0], x.shape[1] // 2) + x.shape[2:],
+                                              x.dtype)
+        pending = pending.replace(
+            actor_params=jax.tree_util.tree_map(half, pending.actor_params), kept_steps=None,
+            episodes=type(pending.episodes)(*jax.tree_util.tree_map(half, pending.episodes[:4]),
+                                            pending.episodes.steps))
+    delivered = template.delivered
+    return template.replace(
+        delivered=None if delivered is None else delivered.replace(count=None), pending=pending,
+        outputs={name: x for name, x in template.outputs.items() if name != "kept_return"})
+
+
+def _from_layout_1(runner: RunnerState) -> RunnerState:
+    """A state read in layout 1 (`_layout_1`) in layout 2: a kept actor's score counts as one
+    measurement (it was one confirmation); no kept actor's returns before; the evaluations under
+    way measured no kept actor, so their kept slots (its actor, its episodes ended) count for
+    nothing (`kept_steps` -2, no actor's `env_steps`)."""
+    outputs = dict(runner.outputs, kept_return=np.full_like(runner.outputs["confirm_return"],
+                                                            np.nan))
+    delivered = runner.delivered
+    if delivered is not None:
+        delivered = delivered.replace(count=(np.asarray(delivered.env_steps) >= 0).astype(np.int32))
+    pending = runner.pending
+    if pending is not None:
+        n, slots = pending.env_steps.shape
+        def pair(old, kept):  # (N, D, ...) and the kept slots' (N, D, ...) -> (N, 2 D, ...)
+            return np.stack([old, kept], axis=2).reshape((n, 2 * slots) + old.shape[2:])
+        by_slot = lambda x: np.asarray(x).reshape((n, slots, -1) + x.shape[2:])
+        episodes = pending.episodes
+        rows = [pair(by_slot(x), by_slot(x)).reshape((n, -1) + x.shape[2:])
+                for x in jax.tree_util.tree_leaves(episodes[:2])]
+        alive = by_slot(episodes.alive)
+        start, states = jax.tree_util.tree_unflatten(
+            jax.tree_util.tree_structure(episodes[:2]), rows)
+        kept_actor = jax.tree_util.tree_map(
+            lambda p, k: np.broadcast_to(np.asarray(k)[:, None], p.shape), pending.actor_params,
+            delivered.actor_params)
+        pending = pending.replace(
+            actor_params=jax.tree_util.tree_map(pair, pending.actor_params, kept_actor),
+            episodes=type(episodes)(start, states,
+                                    pair(alive, np.zeros_like(alive)).reshape(n, -1),
+                                    pair(by_slot(episodes.returns),
+                                         by_slot(episodes.returns)).reshape(n, -1),
+                                    episodes.steps),
+            kept_steps=np.full((n, slots), -2, np.int32))
+    return runner.replace(outputs=outputs, delivered=delivered, pending=pending)
+
+
 def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = False
                     ) -> Tuple[SACConfig, RunInfo, RunnerState, Position]:
     """(config, run info, training state, position) of the run directory's checkpoint of
@@ -235,20 +295,22 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
         if isinstance(filled, bool) or not isinstance(filled, int) or not (
                 0 <= filled <= config.buffer_size):
             raise ValueError(f"buffer_filled={filled!r} outside [0, {config.buffer_size}]")
+        state = template if meta.get("layout", 1) == LAYOUT else _layout_1(template)
         if meta.get("format") == 2:  # a legacy file without the delivered actor
             if not earlier:
                 raise checkpoint.CheckpointError(
                     f"checkpoint {legacy}: written by an earlier sac-jax (format 2) that kept no "
                     "delivered policy; it cannot be resumed, train anew")
-            return _buffer_filled_to(template.replace(delivered=None, stopped=None,
-                                                      non_finite=None), filled)
+            return _buffer_filled_to(state.replace(delivered=None, stopped=None,
+                                                   non_finite=None), filled)
         if meta.get("format") == 3:  # legacy files hold no non-finite code: finite then
-            return _buffer_filled_to(template.replace(non_finite=None), filled)
-        return _buffer_filled_to(template, filled)
+            return _buffer_filled_to(state.replace(non_finite=None), filled)
+        return _buffer_filled_to(state, filled)
 
     if not os.path.isdir(directory(run_dir)) and os.path.exists(legacy):
         runner, meta = legacy_checkpoint.load(legacy, stored)
-        runner = runner.replace(non_finite=np.zeros(template.non_finite.shape, np.int32))
+        runner = _from_layout_1(
+            runner.replace(non_finite=np.zeros(template.non_finite.shape, np.int32)))
         return (config, info, _padded(runner, config.buffer_size),
                 Position.from_json(meta["position"]))
     try:
@@ -260,6 +322,8 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
         raise checkpoint.CheckpointError(
             f"{error}; the checkpoint of step {intact} before it is intact: load that step "
             "explicitly (scripts/train.py --resume-step)") from None
+    if meta.get("layout", 1) != LAYOUT:
+        runner = _from_layout_1(runner)
     return (config, info, _padded(runner, config.buffer_size),
             Position.from_json(meta["position"]))
 

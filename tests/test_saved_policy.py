@@ -2,6 +2,7 @@
 exactly `Agent.act`'s deterministic actions; clear errors for a bad run directory, checkpoint,
 seed or observation."""
 
+import json
 import os
 import shutil
 
@@ -14,6 +15,7 @@ from flax import serialization
 import sac_jax
 from sac_jax import checkpoint, legacy_checkpoint, run_checkpoint, run_dir
 from sac_jax.train import agent_for
+from scripts import train as train_script
 from tests.saved_runs import damage_checkpoint, trained_pendulum, untrained
 
 
@@ -75,7 +77,9 @@ def test_the_delivered_actor_by_default_the_last_one_on_request(tmp_path, runs):
 def _as_msgpack_run(path, runner, position, format):
     """Turns the run directory `path` into one of an earlier sac-jax: its state `runner` in a
     msgpack checkpoint of `format` (2: without the delivered actor and stop flags)."""
-    runner = runner.replace(non_finite=None)  # earlier sac-jax kept no non-finite record
+    runner = runner.replace(  # earlier sac-jax kept no non-finite record, the state of layout 1
+        non_finite=None, delivered=runner.delivered.replace(count=None),
+        outputs={k: v for k, v in runner.outputs.items() if k != "kept_return"})
     if format == 2:
         runner = runner.replace(delivered=None, stopped=None)
     leaves, filled = run_checkpoint._stored(runner)
@@ -111,6 +115,43 @@ def test_a_run_without_a_delivered_actor_delivers_its_last_actor_with_a_warning(
     np.testing.assert_array_equal(policy(obs), _stored_actions(runs["trained"], 0, obs, "last"))
     with pytest.raises(checkpoint.CheckpointError, match="format 2.*cannot be resumed"):
         run_checkpoint.load_checkpoint(old)
+
+
+LAYOUT_1 = os.path.join(os.path.dirname(__file__), "data", "layout1-alongside")
+"""A run directory of layout 1 (`run_checkpoint.LAYOUT`), written by sac-jax at 574701d:
+`python scripts/train.py --preset pendulum --num-envs 4 --total-steps 2200 --learning-starts
+1000 --eval-every 300 --eval-episodes 2 --confirm-episodes 2 --actor-hidden 8 8 --critic-hidden
+8 8 --buffer-size 2200 --eval-alongside` (D = 3), its checkpoints of steps 1300 (evaluations
+under way) and 2200 (the end), config.json, run.json and summary.json."""
+
+
+def test_a_run_of_layout_1_delivers_its_actor_and_resumes(tmp_path):
+    """Its delivered actor and score load as the run wrote them (its score one measurement, no
+    kept actor's returns), and a resume from the checkpoint with evaluations under way finishes
+    the run in layout 2."""
+    summary = json.load(open(os.path.join(LAYOUT_1, "summary.json")))
+    _, _, runner, _ = run_checkpoint.load_checkpoint(LAYOUT_1)
+    np.testing.assert_allclose(runner.delivered.score, summary["delivered_return"], rtol=1e-6)
+    assert list(runner.delivered.env_steps) == summary["delivered_at_step"]
+    assert list(runner.delivered.count) == [1]
+    assert np.isnan(runner.outputs["kept_return"]).all()
+    policy = sac_jax.load_policy(LAYOUT_1)
+    np.testing.assert_array_equal(policy(_observations(4)), np.asarray(
+        agent_for(policy.config)[0].act(jax.tree_util.tree_map(
+            lambda x: x[0], runner.delivered.actor_params), _observations(4))))
+    _, _, mid, _ = run_checkpoint.load_checkpoint(LAYOUT_1, step=1300)
+    assert mid.pending.active.any() and (mid.pending.kept_steps == -2).all()
+    run = str(tmp_path / "run")
+    shutil.copytree(LAYOUT_1, run)
+    shutil.rmtree(os.path.join(run, run_checkpoint.CHECKPOINTS, "2200"))
+    os.remove(os.path.join(run, "summary.json"))
+    assert train_script.main(["--resume", run]) == 0
+    resumed = json.load(open(os.path.join(run, "summary.json")))
+    assert resumed["status"] == "finished" and np.isfinite(resumed["delivered_return"]).all()
+    newest = run_checkpoint.saved_steps(run)[-1]
+    header = json.load(open(os.path.join(run_checkpoint.directory(run), str(newest), "meta",
+                                         "metadata")))
+    assert newest == 2200 and header["meta"]["layout"] == run_checkpoint.LAYOUT
 
 
 def test_seed_selects_that_seeds_actor(runs):
