@@ -18,8 +18,9 @@ and for ours the seconds and env steps at which every seed's delivered actor had
 peer's final evaluation return by its kept score (`to_peer_final`), and each delivered actor's
 mean return over `--fresh-episodes` episodes no training evaluation drew (`fresh`; a stopped
 seed's actor is the one it stopped with). A reach holds (`reach_holds`, None where not
-reached) only if the delivered actors' fresh mean is at the peer's return too. The issue-24 targets: ours reaches it in at
-most 1/3 of the peer's wall time, and `--seeds` seeds in at most 2x one seed's time.
+reached) only if the delivered actors' fresh mean is at the peer's return too. The issue-24
+targets: ours reaches it in at most 1/3 of the peer's wall time, and `--seeds` seeds in at most
+2x one seed's time.
 
     python -m benchmarks.playground_peer --task CartpoleBalance
     python -m benchmarks.playground_peer --task CartpoleBalance --quick   # checks the script

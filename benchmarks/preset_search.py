@@ -78,8 +78,9 @@ def main() -> None:
                                                   args.fresh_episodes))
         rows.append(row)
         print(f"{json.dumps(variant)}: delivered mean {row['delivered_mean']}, min "
-              f"{row['delivered_min']} (fresh episodes: mean {row['fresh_mean']}) after {row['env_steps']:,} steps, {row['wall_s']} s, all "
-              f"at the target {row['all_reached']}; "
+              f"{row['delivered_min']} (fresh episodes: mean {row['fresh_mean']}) after "
+              f"{row['env_steps']:,} steps, {row['wall_s']} s, all at the target "
+              f"{row['all_reached']}; "
               f"curve {row['curve'][::max(1, len(row['curve']) // 8)]}", flush=True)
     task = configs[0].env.split("/")[-1]  # the first variant's environment names the file
     write_result(result_name(f"preset_search-{task}"),

@@ -10,10 +10,10 @@ One `lax.scan` runs all iterations; iteration i:
     evaluate  after every eval_every training steps: deterministic returns on separate
               environment instances, the selection of the delivered actor (`sac_jax.selection`:
               a candidate must beat the kept actor on the same episodes), and the period's
-              metric means written to
-              the outputs; with `eval_alongside`, the point's episodes are instead stepped once
-              per iteration beside those of the D points before it (`Pending`), and scored
-              with the selection D points later, D = ceil(episode steps / iterations per point)
+              metric means written to the outputs; with `eval_alongside`, the point's
+              episodes are instead stepped once per iteration beside those of the D points
+              before it (`Pending`), and scored with the selection D points later,
+              D = ceil(episode steps / iterations per point)
     stop      with `stop_when_solved`, a seed whose delivered actor is solved learns no more:
               its learner state and delivered actor stay as they are
 
