@@ -257,11 +257,9 @@ def _from_layout_1(runner: RunnerState) -> RunnerState:
             return np.stack([old, kept], axis=2).reshape((n, 2 * slots) + old.shape[2:])
         by_slot = lambda x: np.asarray(x).reshape((n, slots, -1) + x.shape[2:])
         episodes = pending.episodes
-        rows = [pair(by_slot(x), by_slot(x)).reshape((n, -1) + x.shape[2:])
-                for x in jax.tree_util.tree_leaves(episodes[:2])]
+        rows = lambda x: pair(by_slot(x), by_slot(x)).reshape((n, -1) + x.shape[2:])
+        start, states = (jax.tree_util.tree_map(rows, tree) for tree in episodes[:2])
         alive = by_slot(episodes.alive)
-        start, states = jax.tree_util.tree_unflatten(
-            jax.tree_util.tree_structure(episodes[:2]), rows)
         kept_actor = jax.tree_util.tree_map(
             lambda p, k: np.broadcast_to(np.asarray(k)[:, None], p.shape), pending.actor_params,
             delivered.actor_params)

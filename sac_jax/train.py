@@ -266,6 +266,10 @@ def make_train_parts(config: SACConfig,
             jax.random.split(jax.random.fold_in(k_eval, 1), config.confirm_episodes)]))
         return begin(jax.tree_util.tree_map(lambda x: jnp.concatenate([x, x]), starts))
 
+    def point_actors(actor, delivered: selection.Delivered):
+        """A point's two actors, its own and the kept one, stacked (group 0 and 1)."""
+        return jax.tree_util.tree_map(lambda *x: jnp.stack(x), actor, delivered.actor_params)
+
     def act_by_group(agent: Agent, actors):
         """Deterministic actions for rows in groups of E, group g acting with actor g
         (`actors`: parameters with a leading axis of groups)."""
@@ -306,8 +310,7 @@ def make_train_parts(config: SACConfig,
         delivered, *returns = select_pending(runner.delivered, old, slot)
         put = lambda rows, new: jax.lax.dynamic_update_slice_in_dim(
             rows, new, slot * 2 * episodes, 0)
-        actors = jax.tree_util.tree_map(lambda *x: jnp.stack(x), runner.sac.actor_params,
-                                        delivered.actor_params)
+        actors = point_actors(runner.sac.actor_params, delivered)
         pending = Pending(
             actor_params=jax.tree_util.tree_map(
                 lambda all_, two: jax.lax.dynamic_update_slice_in_dim(all_, two, 2 * slot, 0),
@@ -347,8 +350,7 @@ def make_train_parts(config: SACConfig,
                 delivered, returns, pending = evaluate_alongside(
                     agent, runner, point, index, out["env_steps"])
             else:
-                actors = jax.tree_util.tree_map(lambda *x: jnp.stack(x), actor,
-                                                runner.delivered.actor_params)
+                actors = point_actors(actor, runner.delivered)
                 delivered, *returns = select(
                     runner.delivered, actor,
                     run_episodes(env, act_by_group(agent, actors), point).returns,
