@@ -7,8 +7,8 @@
     the config's `num_resets_per_eval`, which is dropped; its `network_factory` settings go to
     `make_sac_networks`. `--peer-steps` shortens its budget (recorded).
 (b) Ours: `run_training` on `playground/<task>` with the task's preset (or `--preset`), its
-    budget `--total-steps`, stopping each seed once its delivered actor is confirmed at the
-    peer's final return, for 1 seed and for `--seeds` seeds vmapped in one program.
+    budget `--total-steps`, stopping each seed once its delivered actor's kept score reaches the
+    peer's final return (over the preset's `stop_measurements`), for 1 seed and for `--seeds` seeds vmapped in one program.
     `--peer-from FILE` takes (a) from an earlier result of the same task instead of running it
     (recorded as `peer_from`: the file's command and date), for when both sides do not fit one
     job's time limit: run it on a machine of the earlier job's kind.
@@ -102,7 +102,7 @@ def earlier_peer(path: str, task: str):
 
 
 def run_ours(config, seeds: int, seed: int, target: float, fresh_episodes: int) -> dict:
-    """`seeds` seeds vmapped; each stops once its delivered actor is confirmed at `target`.
+    """`seeds` seeds vmapped; each stops once its delivered actor's kept score is at `target`.
     Points: (env steps, delivered return averaged over seeds, fraction stopped, seconds)."""
     config = config.replace(stop_when_solved=True, stop_return=target)
     points = []

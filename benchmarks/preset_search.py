@@ -8,7 +8,8 @@ evaluation points, the wall time (compilation included) and the run's environmen
 Each seed's delivered actor is also scored over `--fresh-episodes` episodes no training
 evaluation drew (`fresh`), the return it delivers, against which its kept score can be read.
 Stopping is off unless the variant sets it, so every seed uses the whole budget; with
-`--target R` each seed stops once its delivered actor is confirmed at R, and a row also records
+`--target R` each seed stops once its delivered actor's kept score is at R
+(over the variant's `stop_measurements`), and a row also records
 when all its seeds had (`all_reached`: env steps and seconds, compilation included).
 
     python -m benchmarks.preset_search --preset CartpoleSwingup --seeds 8 \\
@@ -39,7 +40,7 @@ def run_variant(config, seeds: int, seed: int, fresh_episodes: int) -> dict:
     def on_point(step, means, _returns, _elapsed):
         points.append((int(step), round(float(means["delivered_return"]), 1),
                        round(time.time() - t0, 1)))
-        if means["stopped"] == 1.0 and not reached:  # every seed confirmed at the target
+        if means["stopped"] == 1.0 and not reached:  # every seed stopped at the target
             reached.append(dict(env_steps=points[-1][0], seconds=points[-1][2]))
 
     result = run_training(config, seeds=seeds, seed=seed, on_point=on_point)
@@ -65,7 +66,7 @@ def main() -> None:
     parser.add_argument("--fresh-episodes", type=int, default=100,
                         help="episodes scoring each seed's delivered actor at the end")
     parser.add_argument("--target", type=float, default=None,
-                        help="stop each seed once its delivered actor is confirmed at this "
+                        help="stop each seed once its delivered actor's kept score is at this "
                              "return; record when all seeds had")
     args = parser.parse_args()
     source = provenance()

@@ -167,14 +167,14 @@ def delivered_gpu() -> str:
 
 def presets() -> str:
     """4 seeds of each preset; every delivered policy scored over 10 episodes."""
-    rows = []
-    for name in ("presets_delivered-h100", "presets_delivered-idp-confirm100-h100"):
-        data = _load(name)
-        for run, r in data["result"].items():
-            label = "`fast` on InvertedDoublePendulum-v5" if run == "idp" else f"`{run}`"
-            rows.append([label, f"{r['env']} ({r['threshold']:g}, {r['judged_in']})",
-                         r.get("confirm_episodes", 20), f"{r['solved']}/{r['seeds']}",
-                         _scores(r["scores"]), _date(data), f"`{name}.json`"])
+    rows, name = [], _gpu("presets_delivered")
+    if name is None:
+        return _pending("bash benchmarks/gpu.sh presets", " on a GPU")
+    data = _load(name)
+    for run, r in data["result"].items():
+        rows.append([f"`{run}`", f"{r['env']} ({r['threshold']:g}, {r['judged_in']})",
+                     r.get("confirm_episodes", 20), f"{r['solved']}/{r['seeds']}",
+                     _scores(r["scores"]), _date(data), f"`{name}.json`"])
     return _table(["configuration", "task (solved, judged in)", "confirmation episodes",
                    "delivered ≥ solved", "scores", "date", "results"], rows)
 
@@ -444,21 +444,14 @@ def _target_delivered_cpu():
 
 
 def _target_presets():
-    names = [n for n in ("presets_delivered-h100", "presets_delivered-idp-confirm100-h100",
-                         "presets_delivered-h200") if _find(n)]
-    if not names:
+    name = _gpu("presets_delivered")
+    if name is None:
         return None
-    by_env = {}  # the latest result of each task
-    for name in names:
-        data = _load(name)
-        for run, r in data["result"].items():
-            if r["env"] not in by_env or _date(data) >= by_env[r["env"]][0]:
-                by_env[r["env"]] = (_date(data), run, r)
+    result = _load(name)["result"]
     parts = [f"`{run}` {r['solved']}/{r['seeds']}" + (
         f" ({r['confirm_episodes']} confirmation episodes)"
-        if r.get("confirm_episodes", 20) != 20 else "") for _, run, r in by_env.values()]
-    return names, [("; ".join(parts), all(r["solved"] == r["seeds"]
-                                         for _, _, r in by_env.values()))]
+        if r.get("confirm_episodes", 20) != 20 else "") for run, r in result.items()]
+    return [name], [("; ".join(parts), all(r["solved"] == r["seeds"] for r in result.values()))]
 
 
 def _target_delivered_gpu():

@@ -82,11 +82,16 @@ class SACConfig:
     as much for a few episodes as for a thousand and an evaluation's steps run one after
     another (`sac_jax.train`)."""
     stop_when_solved: bool = False
-    """End a seed's learning once its delivered actor's confirmed return reaches `stop_return`;
-    the run ends when every seed has stopped."""
+    """End a seed's learning once its delivered actor's kept score reaches `stop_return` and
+    averages at least `stop_measurements` measurements; the run ends when every seed has
+    stopped."""
     stop_return: Optional[float] = None
-    """Confirmed return at which `stop_when_solved` stops a seed; None: the task's solved
-    return (`envs.spec(env).solved_return`)."""
+    """Kept score at which `stop_when_solved` stops a seed; None: the task's solved return
+    (`envs.spec(env).solved_return`)."""
+    stop_measurements: int = 2
+    """Measurements (its confirmation, then its re-measurements on later points' confirmation
+    episodes: `sac_jax.selection`) that the kept score must average before `stop_when_solved`
+    stops a seed. With 1 a seed can stop on one lucky confirmation."""
 
     # --- objective ---
     gamma: float = 0.99
@@ -208,7 +213,7 @@ class SACConfig:
         choice("hidden_dtype", HIDDEN_DTYPES)
         for field in ("num_envs", "total_steps", "buffer_size", "batch_size", "updates_per_step",
                       "eval_every", "eval_episodes", "confirm_episodes", "target_update_period",
-                      "policy_frequency", "num_critics"):
+                      "policy_frequency", "num_critics", "stop_measurements"):
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
                 fail(field, "must be a positive integer")

@@ -33,7 +33,8 @@ from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
 from sac_jax.config import SACConfig
-from sac_jax.train import METRIC_NAMES, SEED_AXES, RunnerState, TrainParts, make_train_parts
+from sac_jax.train import (EVAL_NAMES, METRIC_NAMES, SEED_AXES, RunnerState, TrainParts,
+                           make_train_parts)
 
 SEEDS = "seeds"
 DATA = "data"
@@ -223,12 +224,12 @@ def data_parallel_metrics(outputs: Dict[str, jax.Array]) -> Dict[str, jax.Array]
     evaluates `eval_episodes`); `train_return` the mean over devices of each device's mean
     training return (NaN where no device ended an episode); update metrics are equal on all
     devices (device 0's), as are the selection's returns, averaged over all devices' episodes
-    inside the program (`confirm_return`, `kept_return`, `delivered_return`)."""
+    inside the program (`confirm_return`, `kept_return`, `delivered_return`), and `stopped`."""
     returns = ("eval_return", "train_return")
     metrics = {name: jnp.nanmean(outputs[name], axis=0) for name in returns}
     metrics["env_steps"] = jnp.sum(outputs["env_steps"], axis=0)
     metrics.update({name: outputs[name][0]
-                    for name in METRIC_NAMES + ("confirm_return", "kept_return", "delivered_return")})
+                    for name in METRIC_NAMES + EVAL_NAMES[1:]})
     return metrics
 
 

@@ -6,15 +6,18 @@
     pendulum  seed 001: SAC v2 on Pendulum-v1 with 3x64 networks and its temperature handling
     fast      InvertedPendulum-v5, tuned by measurement for wall-clock time to a delivered
               policy that solves the task on 2 CPU cores (BENCHMARKS.md); each seed stops
-              once its delivered actor's confirmation scores 1000 of 1000 on all 20 episodes
-              (a confirmed 955 delivered 911 in Gymnasium), within a budget of 20,480 steps
+              once its delivered actor scores 1000 of 1000 on all 20 episodes of its
+              confirmation and of a re-measurement (`stop_measurements`; a confirmed 955
+              delivered 911 in Gymnasium), within a budget of 20,480 steps
     double-pendulum  `fast`'s settings on InvertedDoublePendulum-v5, stopping a seed once its
-              delivered actor is confirmed at the solved return 9000 over 100 episodes (with
-              20, one of 4 seeds delivered a policy that fell in one of 10 Gymnasium episodes)
+              delivered actor scores the solved return 9000 over 2 measurements of 100 episodes
+              (stopping on one of 20, and on one of 100, one of 4 seeds delivered a policy
+              that fell in one of 10 Gymnasium episodes; with 2 of 100 none of 4 did, an H200,
+              BENCHMARKS.md)
     CartpoleBalance  `fast`'s settings on MuJoCo Playground's task (the `playground` extra) with
-              critic layer norm, stopping a seed once its delivered actor is confirmed at 950 of
-              1000 over 20 episodes (the task counts as solved at 900). Layer norm makes seeds
-              alike near the top: on an H100 all of 32 seeds vmapped were confirmed at 993.8
+              critic layer norm, stopping a seed once its delivered actor scores 950 of 1000
+              over 2 measurements of 20 episodes (the task counts as solved at 900). Layer
+              norm makes seeds alike near the top: on an H100 all of 32 seeds vmapped were confirmed at 993.8
               (Playground SAC's final return) within 38,912 steps with it, and not within 61,440
               without it (`benchmarks/preset_search.py --target 993.8`)
     CartpoleSwingup  `fast`'s settings on Playground's swing-up with critic layer norm, 256-wide

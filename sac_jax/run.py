@@ -86,18 +86,13 @@ def point_means(config: SACConfig, point: Dict[str, np.ndarray]) -> Dict[str, fl
     """What `run_training` reports of one evaluation point (`point`: {metric: value per seed},
     one column of the state's `outputs`): each metric's mean over the seeds that have it;
     `solved`, for a task with a solved threshold, the fraction of seeds whose delivered
-    actor has reached it; `stopped` the fraction of seeds stopped. A seed stops at the point
-    where its delivered actor reaches `config.stop_at`, and its delivered actor stays fixed
-    from then on, so it is stopped exactly where its delivered return is at least `stop_at`
-    (compared in float32, as the program does): the figures of a point are a function of the
-    point's outputs alone, and can be recomputed from a checkpoint (`evaluation_points`)."""
+    actor has reached it; `stopped` the fraction of seeds stopped (the program's `stopped`
+    output). The figures of a point are a function of the point's outputs alone, and can be
+    recomputed from a checkpoint (`evaluation_points`)."""
     means = {k: _nanmean(v) for k, v in point.items()}
-    delivered = np.asarray(point["delivered_return"], np.float32)
     threshold = envs.spec(config.env).solved_return
     if threshold is not None:
-        means["solved"] = float(np.mean(delivered >= threshold))
-    means["stopped"] = (float(np.mean(delivered >= np.float32(config.stop_at)))
-                        if config.stop_when_solved else 0.0)
+        means["solved"] = float(np.mean(np.asarray(point["delivered_return"]) >= threshold))
     return means
 
 
@@ -121,10 +116,11 @@ def evaluation_points(config: SACConfig, runner: RunnerState
 
 
 def solved_at(returns: np.ndarray, env_steps: np.ndarray, threshold: float) -> Optional[int]:
-    """First environment step whose return (e.g. the delivered actor's) reaches `threshold`,
-    or None."""
-    hits = np.nonzero(returns >= threshold)[0]
-    return int(env_steps[hits[0]]) if hits.size else None
+    """First environment step from which the returns (e.g. the delivered actor's kept score,
+    which re-measurements can lower) stay at or above `threshold` to the last one, or None."""
+    below = np.nonzero(~(np.asarray(returns) >= threshold))[0]
+    first = below[-1] + 1 if below.size else 0
+    return int(env_steps[first]) if first < len(returns) else None
 
 
 def _finite_flags(tree):
@@ -398,10 +394,10 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
     """summary.json's figures of a run: per seed, the last evaluation of the last actor
     (`eval_return`), the delivered actor's confirmed return (`delivered_return`) and the step
     and training seconds at which it was selected, and the step, training seconds and seconds
-    from process start at which the delivered actor first reached the solved return (None
-    where it has not); for all seeds, the training and process seconds until the last of them
-    was solved (None unless all were); the peak memory measured and `model`'s estimate of it
-    (`sac_jax.memory`)."""
+    from process start from which the delivered actor's kept score stayed at the solved return
+    (`solved_at`; None where it is not there at the end); for all seeds, the training and
+    process seconds until the last of them was solved (None unless all were); the peak memory
+    measured and `model`'s estimate of it (`sac_jax.memory`)."""
     threshold = envs.spec(config.env).solved_return
     steps = metrics["env_steps"][0, :points]
     before_training = position.startup_s + position.compile_s

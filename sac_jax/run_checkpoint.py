@@ -27,11 +27,13 @@ from sac_jax.run_dir import RunInfo, read_config, state_template
 from sac_jax.train import RunnerState
 
 CHECKPOINTS = "checkpoints"
-LAYOUT = 2
-"""The training state's layout, in each checkpoint's metadata ("layout"). 2 since the paired
-selection (2026-11-28: `Delivered.count`, the `kept_return` output, the kept actor's slots in
-`train.Pending`); a checkpoint without it holds layout 1 and is read into layout 2
-(`_layout_1`, `_from_layout_1`), so earlier runs' policies still load and their runs resume."""
+LAYOUT = 3
+"""The training state's layout, in each checkpoint's metadata ("layout"). 3 since
+`SACConfig.stop_measurements` (2026-11-28: the `stopped` output); 2 since the paired selection
+(2026-11-28: `Delivered.count`, the `kept_return` output, the kept actor's slots in
+`train.Pending`); a checkpoint without it holds layout 1. Earlier layouts are read into the
+current one (`_stored_as`, `_from_layout`), so earlier runs' policies still load and their
+runs resume (with `stop_measurements` 1, the rule they ran under: `run_dir.read_config`)."""
 MIN_INTERVAL_S = 5.0
 """`CheckpointWriter` starts a write at most this often."""
 
@@ -274,6 +276,31 @@ def _from_layout_1(runner: RunnerState) -> RunnerState:
     return runner.replace(outputs=outputs, delivered=delivered, pending=pending)
 
 
+def _stored_as(template: RunnerState, layout: int) -> RunnerState:
+    """The shapes of `template` (the current layout) as layout `layout` stored them: before
+    layout 3 without the `stopped` output."""
+    if layout < 3:
+        template = template.replace(outputs={name: x for name, x in template.outputs.items()
+                                             if name != "stopped"})
+    return _layout_1(template) if layout == 1 else template
+
+
+def _from_layout(runner: RunnerState, layout: int, config: SACConfig) -> RunnerState:
+    """A state read in layout `layout` (`_stored_as`) in the current one. Before layout 3 a seed
+    stopped where its kept score reached `config.stop_at` (one measurement sufficed), and its
+    kept score stayed fixed from then on: its `stopped` output is that comparison (float32, as
+    the program made it), NaN at points not yet done."""
+    if layout == 1:
+        runner = _from_layout_1(runner)
+    if layout < 3:
+        delivered = np.asarray(runner.outputs["delivered_return"], np.float32)
+        stopped = (delivered >= np.float32(config.stop_at) if config.stop_when_solved
+                   else np.zeros(delivered.shape, bool))
+        runner = runner.replace(outputs=dict(runner.outputs, stopped=np.where(
+            np.isnan(delivered), np.nan, stopped).astype(np.float32)))
+    return runner
+
+
 def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = False
                     ) -> Tuple[SACConfig, RunInfo, RunnerState, Position]:
     """(config, run info, training state, position) of the run directory's checkpoint of
@@ -293,7 +320,7 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
         if isinstance(filled, bool) or not isinstance(filled, int) or not (
                 0 <= filled <= config.buffer_size):
             raise ValueError(f"buffer_filled={filled!r} outside [0, {config.buffer_size}]")
-        state = template if meta.get("layout", 1) == LAYOUT else _layout_1(template)
+        state = _stored_as(template, meta.get("layout", 1))
         if meta.get("format") == 2:  # a legacy file without the delivered actor
             if not earlier:
                 raise checkpoint.CheckpointError(
@@ -307,8 +334,8 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
 
     if not os.path.isdir(directory(run_dir)) and os.path.exists(legacy):
         runner, meta = legacy_checkpoint.load(legacy, stored)
-        runner = _from_layout_1(
-            runner.replace(non_finite=np.zeros(template.non_finite.shape, np.int32)))
+        runner = _from_layout(
+            runner.replace(non_finite=np.zeros(template.non_finite.shape, np.int32)), 1, config)
         return (config, info, _padded(runner, config.buffer_size),
                 Position.from_json(meta["position"]))
     try:
@@ -320,8 +347,7 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
         raise checkpoint.CheckpointError(
             f"{error}; the checkpoint of step {intact} before it is intact: load that step "
             "explicitly (scripts/train.py --resume-step)") from None
-    if meta.get("layout", 1) != LAYOUT:
-        runner = _from_layout_1(runner)
+    runner = _from_layout(runner, meta.get("layout", 1), config)
     return (config, info, _padded(runner, config.buffer_size),
             Position.from_json(meta["position"]))
 

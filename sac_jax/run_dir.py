@@ -122,7 +122,10 @@ def read_config(run_dir: str) -> Tuple[SACConfig, RunInfo]:
         raise RunDirError(f"{run_dir}: no such run directory")
     try:
         with open(os.path.join(run_dir, "config.json")) as f:
-            config = SACConfig(**json.load(f))
+            fields = json.load(f)
+        # runs written before `stop_measurements` (run_checkpoint.LAYOUT < 3) stopped on one
+        fields.setdefault("stop_measurements", 1)
+        config = SACConfig(**fields)
         with open(os.path.join(run_dir, "run.json")) as f:
             info = json.load(f)
         settings = info.get("settings")

@@ -32,11 +32,13 @@ instead would make c* the running maximum of single confirmations again wherever
 come less than D points apart.)
 
 With `SACConfig.stop_when_solved` a seed whose c* reaches `SACConfig.stop_at` (by default the
-task's solved return) stops learning: its learner state and kept actor no longer change
-(`sac_jax.train`), as Stable-Baselines3's StopTrainingOnRewardThreshold stops a run. Just
-after a replacement c* is that one confirmation, so on a task whose returns spread widely a
-seed can stop on a lucky one: on AcrobotSwingup seed 0 stopped at a confirmed 65.9 with an
-actor that scored 47.0 over 100 fresh episodes (`playground_peer-AcrobotSwingup-h100.json`).
+task's solved return) with n >= `SACConfig.stop_measurements` stops learning: its learner
+state and kept actor no longer change (`sac_jax.train`), as Stable-Baselines3's
+StopTrainingOnRewardThreshold stops a run. Just after a replacement c* is that one
+confirmation, and on a task whose returns spread widely a seed stopping on it (n >= 1) can
+stop on a lucky one: on AcrobotSwingup seed 0 stopped at a confirmed 65.9 with an actor that
+scored 47.0 over 100 fresh episodes (an H100 run on 2026-11-28, stopping at n >= 1); the
+default n >= 2 waits for one re-measurement on other episodes.
 """
 
 from __future__ import annotations

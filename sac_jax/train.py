@@ -14,8 +14,9 @@ One `lax.scan` runs all iterations; iteration i:
               episodes are instead stepped once per iteration beside those of the D points
               before it (`Pending`), and scored with the selection D points later,
               D = ceil(episode steps / iterations per point)
-    stop      with `stop_when_solved`, a seed whose delivered actor is solved learns no more:
-              its learner state and delivered actor stay as they are
+    stop      with `stop_when_solved`, a seed whose delivered actor is solved (its kept score,
+              averaged over at least `stop_measurements` measurements, at `stop_at`) learns
+              no more: its learner state and delivered actor stay as they are
 
 The environment step, the update and the evaluation each appear once in the traced program
 (prefill and training share the iteration; phases switch with `lax.cond` on the iteration
@@ -63,11 +64,12 @@ from sac_jax.replay_buffer import ReplayBuffer, Transition
 from sac_jax.updates import sac_update, sample_noise
 
 METRIC_NAMES = ("critic_loss", "q", "actor_loss", "entropy", "alpha_loss", "alpha", "value_loss")
-EVAL_NAMES = ("eval_return", "confirm_return", "kept_return", "delivered_return")
+EVAL_NAMES = ("eval_return", "confirm_return", "kept_return", "delivered_return", "stopped")
 """Per evaluation point: the current actor's mean return over `eval_episodes`; its confirmed
 return over `confirm_episodes` fresh episodes (NaN where it was no candidate); the kept actor's
 return on those episodes (NaN where not used); the kept score of the delivered actor after the
-point (`sac_jax.selection`)."""
+point (`sac_jax.selection`); 1.0 if the seed has stopped learning after the point
+(`stop_when_solved`), else 0.0."""
 
 
 class Pending(flax.struct.PyTreeNode):
@@ -360,8 +362,9 @@ def make_train_parts(config: SACConfig,
         if config.stop_when_solved:
             delivered = jax.tree_util.tree_map(
                 lambda old, new: jnp.where(stopped, old, new), runner.delivered, delivered)
-            stopped = stopped | (delivered.score >= config.stop_at)
-        out["delivered_return"] = delivered.score
+            stopped = stopped | ((delivered.score >= config.stop_at)
+                                 & (delivered.count >= config.stop_measurements))
+        out["delivered_return"], out["stopped"] = delivered.score, stopped.astype(jnp.float32)
         if progress is not None:
             jax.debug.callback(progress, out)
         outputs = {name: runner.outputs[name].at[index].set(out[name]) for name in out}
@@ -503,10 +506,10 @@ def make_train(config: SACConfig,
     settings in one program).
 
     metrics: arrays with a leading axis of `config.num_evals` evaluation points:
-    `env_steps` (environment steps done), `eval_return`, `confirm_return` and
-    `delivered_return` (`EVAL_NAMES`), `train_return` (mean return of training episodes ended
-    in the period, NaN if none), and the period means of the update metrics in `METRIC_NAMES`
-    (NaN where unused, and after a seed stopped). The runner's `delivered.actor_params` is the
+    `env_steps` (environment steps done), `eval_return`, `confirm_return`, `kept_return`,
+    `delivered_return` and `stopped` (`EVAL_NAMES`), `train_return` (mean return of training
+    episodes ended in the period, NaN if none), and the period means of the update metrics in
+    `METRIC_NAMES` (NaN where unused, and after a seed stopped). The runner's `delivered.actor_params` is the
     actor the run delivers (`sac_jax.selection`).
     `randomness`, if given, is the source of acting's and learning's draws
     (`sac_jax.randomness`; e.g. `replay(config, record_draws(config, key))`), default the

@@ -203,7 +203,9 @@ def main(argv=None) -> int:
         sac_jax.enable_compilation_cache(args.cache_dir)
     seeds = info.seeds
     budget = (f"up to {config.run_steps} steps each (a seed stops once its delivered policy "
-              f"is confirmed at {config.stop_at:g})" if config.stop_when_solved
+              f"scores {config.stop_at:g} over {config.stop_measurements} measurement"
+              f"{'s' if config.stop_measurements > 1 else ''})"
+              if config.stop_when_solved
               else f"{config.run_steps} steps each")
     print(f"{'resuming' if resume else 'preset'} {info.preset} on {config.env}: {seeds} "
           f"seed(s){device_split(seeds)}, {budget}, {config.num_envs} envs, "

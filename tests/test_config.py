@@ -17,6 +17,7 @@ BAD_VALUES = [
     ("confirm_episodes", 0, "positive integer"),
     ("policy_frequency", 0, "positive integer"),
     ("num_critics", 0, "positive integer"),
+    ("stop_measurements", 0, "positive integer"),
     ("tau", 0.0, r"\(0, 1\]"),
     ("tau", 1.5, r"\(0, 1\]"),
     ("gamma", 1.01, r"\[0, 1\]"),

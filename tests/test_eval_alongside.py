@@ -58,7 +58,7 @@ def test_selection_follows_its_rules_with_and_without_the_kept_actors_returns(ru
     kept actor's return was used where it was still the kept actor and not after a
     replacement had overtaken its measurement."""
     alongside = {name: values[DEPTH:CONFIG.num_evals - 1] for name, values in runs[True][1].items()}
-    scores, _ = replay_selection(alongside)
+    scores = replay_selection(alongside)[0]
     np.testing.assert_array_equal(alongside["delivered_return"], scores)
     used = ~np.isnan(alongside["kept_return"])
     assert used[1:].any() and not used[1:].all()

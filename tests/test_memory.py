@@ -52,7 +52,7 @@ def test_a_run_that_cannot_fit_is_refused_in_one_line_and_writes_nothing(
         tmp_path, capsys, monkeypatch, machine_of_24_gb):
     out = str(tmp_path / "huge")
     fails_in_one_line(capsys, train_script.main, HUGE + ["--out", out], 2,
-                      "need 28.2 GB (replay 28.2 GB + 80.0 MB state, checkpoints written in line "
+                      "need 28.2 GB (replay 28.2 GB + 85.0 MB state, checkpoints written in line "
                       "without a copy), 24.0 GB available on cpu: lower --buffer-size or --seeds")
     assert not os.path.exists(out) and os.listdir(tmp_path) == []
     # an explicit override passes the check (stopped here before anything is compiled)

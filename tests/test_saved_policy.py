@@ -13,7 +13,7 @@ import pytest
 from flax import serialization
 
 import sac_jax
-from sac_jax import checkpoint, legacy_checkpoint, run_checkpoint, run_dir
+from sac_jax import checkpoint, legacy_checkpoint, run, run_checkpoint, run_dir
 from sac_jax.train import agent_for
 from scripts import train as train_script
 from tests.saved_runs import damage_checkpoint, trained_pendulum, untrained
@@ -77,9 +77,9 @@ def test_the_delivered_actor_by_default_the_last_one_on_request(tmp_path, runs):
 def _as_msgpack_run(path, runner, position, format):
     """Turns the run directory `path` into one of an earlier sac-jax: its state `runner` in a
     msgpack checkpoint of `format` (2: without the delivered actor and stop flags)."""
-    runner = runner.replace(  # earlier sac-jax kept no non-finite record, the state of layout 1
-        non_finite=None, delivered=runner.delivered.replace(count=None),
-        outputs={k: v for k, v in runner.outputs.items() if k != "kept_return"})
+    # the state of layout 1 (no evaluations under way here); earlier sac-jax kept no
+    # non-finite record
+    runner = run_checkpoint._stored_as(runner, 1).replace(non_finite=None)
     if format == 2:
         runner = runner.replace(delivered=None, stopped=None)
     leaves, filled = run_checkpoint._stored(runner)
@@ -128,7 +128,7 @@ under way) and 2200 (the end), config.json, run.json and summary.json."""
 def test_a_run_of_layout_1_delivers_its_actor_and_resumes(tmp_path):
     """Its delivered actor and score load as the run wrote them (its score one measurement, no
     kept actor's returns), and a resume from the checkpoint with evaluations under way finishes
-    the run in layout 2."""
+    the run in the current layout."""
     summary = json.load(open(os.path.join(LAYOUT_1, "summary.json")))
     _, _, runner, _ = run_checkpoint.load_checkpoint(LAYOUT_1)
     np.testing.assert_allclose(runner.delivered.score, summary["delivered_return"], rtol=1e-6)
@@ -152,6 +152,29 @@ def test_a_run_of_layout_1_delivers_its_actor_and_resumes(tmp_path):
     header = json.load(open(os.path.join(run_checkpoint.directory(run), str(newest), "meta",
                                          "metadata")))
     assert newest == 2200 and header["meta"]["layout"] == run_checkpoint.LAYOUT
+
+
+LAYOUT_2 = os.path.join(os.path.dirname(__file__), "data", "layout2-stopped")
+"""A run directory of layout 2, written by sac-jax at da956be, whose seed 0 stopped on its
+first confirmation: `python scripts/train.py --preset pendulum --num-envs 4 --total-steps 2200
+--learning-starts 1000 --eval-every 300 --eval-episodes 2 --confirm-episodes 2 --actor-hidden 8
+8 --critic-hidden 8 8 --buffer-size 2200 --seeds 2 --stop-when-solved --stop-return -1340`,
+its checkpoint of step 2200, config.json, run.json and summary.json."""
+
+
+def test_a_run_of_layout_2_keeps_its_stop_rule_and_stopped_seeds():
+    """Its config reads with the rule it ran under (stop on one measurement), and its
+    `stopped` output is rebuilt from its kept scores, agreeing with its seeds' flags."""
+    summary = json.load(open(os.path.join(LAYOUT_2, "summary.json")))
+    config, _, runner, _ = run_checkpoint.load_checkpoint(LAYOUT_2)
+    assert config.stop_measurements == 1 and summary["stopped"] == [True, False]
+    assert list(runner.stopped) == summary["stopped"]
+    np.testing.assert_array_equal(runner.outputs["stopped"], [[1.0] * 4, [0.0] * 4])
+    assert [means["stopped"] for _, means, _ in run.evaluation_points(config, runner)] == [0.5] * 4
+    policy = sac_jax.load_policy(LAYOUT_2)
+    np.testing.assert_array_equal(policy(_observations(4)), np.asarray(
+        agent_for(policy.config)[0].act(jax.tree_util.tree_map(
+            lambda x: x[0], runner.delivered.actor_params), _observations(4))))
 
 
 def test_seed_selects_that_seeds_actor(runs):

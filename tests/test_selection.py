@@ -1,8 +1,9 @@
 """The delivered policy (`sac_jax.selection`): a candidate replaces the kept actor only by
 beating it on the same confirmation episodes, and the kept score is the mean of the kept
 actor's measurements, checked with planted evaluation values and in the training loop; with
-`stop_when_solved` a solved seed's learner and kept actor no longer change, and a run whose
-seeds have all stopped ends."""
+`stop_when_solved` a seed stops once its kept score, solved, averages `stop_measurements`
+measurements, a stopped seed's learner and kept actor no longer change, and a run whose seeds
+have all stopped ends."""
 
 import dataclasses
 
@@ -86,18 +87,19 @@ def _points_of_a_run(config, seeds=2):
 
 def replay_selection(out):
     """The kept scores `selection.select` gives on a run's reported returns, point by point
-    (the kept actor's return counts where reported), and the index of the point whose actor
-    is kept after each point (-1 before any)."""
+    (the kept actor's return counts where reported), the index of the point whose actor is
+    kept after each point (-1 before any), and the number of measurements the score averages."""
     step = jax.jit(selection.select)
     kept = selection.init(jnp.int32(-1))
-    scores, points = [], []
+    scores, points, counts = [], [], []
     for p, (s, c, k) in enumerate(zip(out["eval_return"], out["confirm_return"],
                                       out["kept_return"])):
         paired = not np.isnan(k) or int(kept.count) == 0  # (nothing kept: always paired)
         kept = step(kept, jnp.int32(p), s, c, k, jnp.bool_(paired), jnp.int32(p))[0]
         scores.append(float(kept.score))
         points.append(int(kept.actor_params))
-    return np.array(scores, np.float32), np.array(points)
+        counts.append(int(kept.count))
+    return np.array(scores, np.float32), np.array(points), np.array(counts)
 
 
 def test_the_loop_delivers_the_actor_its_selection_keeps():
@@ -115,7 +117,7 @@ def test_the_loop_delivers_the_actor_its_selection_keeps():
         np.testing.assert_array_equal(np.isnan(mine["confirm_return"]),
                                       ~(mine["eval_return"] > previous))
         assert np.isnan(mine["kept_return"][0]) and np.isfinite(mine["kept_return"][1:]).all()
-        scores, points = replay_selection(mine)
+        scores, points, _ = replay_selection(mine)
         np.testing.assert_array_equal(delivered, scores)
         kept_points.append(points)
         step = int(mine["env_steps"][points[-1]])
@@ -130,13 +132,42 @@ def test_the_loop_delivers_the_actor_its_selection_keeps():
 
 
 @pytest.fixture
-def solved_at_once(monkeypatch):
-    """Pendulum-v1's solved return lowered below any return, so a seed is solved at its first
-    evaluation point (the threshold is read when the loop is traced)."""
+def solved_everywhere(monkeypatch):
+    """Pendulum-v1's solved return lowered below any return, so a seed is solved from its
+    first evaluation point on (the threshold is read when the loop is traced)."""
     spec = envs.spec("Pendulum-v1")
     monkeypatch.setitem(envs.registry.SPECS, spec.name,
                         dataclasses.replace(spec, solved_return=-1e9))
     return CONFIG.replace(stop_when_solved=True)
+
+
+@pytest.fixture
+def solved_at_once(solved_everywhere):
+    """A seed stops at its first evaluation point, on its first confirmation."""
+    return solved_everywhere.replace(stop_measurements=1)
+
+
+@pytest.mark.parametrize("measurements", [1, 2, 3])
+def test_a_seed_stops_once_its_kept_score_averages_enough_measurements(solved_everywhere,
+                                                                       measurements):
+    """Each seed stops (its `stopped` output turns 1 and stays) at the first point where the
+    selection's replay on its reported returns counts `stop_measurements` measurements of
+    the kept actor, and its delivered score stays as it was there; with 2 or more some seed
+    learned on after its first confirmation."""
+    config = solved_everywhere.replace(stop_measurements=measurements)
+    _, _, out = _points_of_a_run(config)
+    firsts = []
+    for seed in range(2):
+        mine = {name: values[seed] for name, values in out.items()}
+        scores, _, counts = replay_selection(mine)
+        first = int(np.argmax(counts >= measurements)) if np.any(counts >= measurements) else None
+        at = len(counts) if first is None else first
+        np.testing.assert_array_equal(mine["stopped"], np.arange(len(counts)) >= at)
+        np.testing.assert_array_equal(mine["delivered_return"][:at + 1], scores[:at + 1])
+        if first is not None:
+            assert (mine["delivered_return"][first:] == scores[first]).all()
+        firsts.append(first)
+    assert (firsts == [0, 0]) == (measurements == 1), firsts
 
 
 def test_a_solved_seed_no_longer_changes(solved_at_once):
