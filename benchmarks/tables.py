@@ -144,7 +144,7 @@ def delivered_cpu() -> str:
 
 
 def delivered_gpu() -> str:
-    """Seeds 0-2 alone and 256 seeds in one run (H100), scored in our environment."""
+    """Seeds 0-2 alone and 256 seeds in one run (one GPU), scored in our environment."""
     rows = []
     for name in (_gpu("delivered"), _gpu("delivered-warm")):
         data = _load(name)
