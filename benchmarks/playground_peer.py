@@ -8,7 +8,8 @@
     `make_sac_networks`. `--peer-steps` shortens its budget (recorded).
 (b) Ours: `run_training` on `playground/<task>` with the task's preset (or `--preset`), its
     budget `--total-steps`, stopping each seed once its delivered actor's kept score reaches the
-    peer's final return (over the preset's `stop_measurements`), for 1 seed and for `--seeds` seeds vmapped in one program.
+    peer's final return (over the preset's `stop_measurements`), for 1 seed and for `--seeds`
+    seeds vmapped in one program.
     `--peer-from FILE` takes (a) from an earlier result of the same task instead of running it
     (recorded as `peer_from`: the file's command and date), for when both sides do not fit one
     job's time limit: run it on a machine of the earlier job's kind.

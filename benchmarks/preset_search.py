@@ -8,9 +8,9 @@ evaluation points, the wall time (compilation included) and the run's environmen
 Each seed's delivered actor is also scored over `--fresh-episodes` episodes no training
 evaluation drew (`fresh`), the return it delivers, against which its kept score can be read.
 Stopping is off unless the variant sets it, so every seed uses the whole budget; with
-`--target R` each seed stops once its delivered actor's kept score is at R
-(over the variant's `stop_measurements`), and a row also records
-when all its seeds had (`all_reached`: env steps and seconds, compilation included).
+`--target R` each seed stops once its delivered actor's kept score is at R (over the
+variant's `stop_measurements`), and a row also records when all its seeds had (`all_reached`:
+env steps and seconds, compilation included).
 
     python -m benchmarks.preset_search --preset CartpoleSwingup --seeds 8 \\
         --variant '{}' --variant '{"critic_layer_norm": true}'

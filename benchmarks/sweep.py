@@ -11,8 +11,8 @@ for the first `--separate` (setting, seed) pairs (default all of them; the first
 from its start to its exit (compilation included). Both sides start from an empty compilation
 cache directory of their own (cold: the separate runs of one setting share its program, as a
 user's reruns would); `--warm` then runs each side once more on its cache. The `fast` preset
-stops each run once its delivered policy scores 1000 over 2 measurements, within 20,480 steps, so a
-setting that never solves runs the whole budget. Writes benchmarks/results/sweep-KIND.json
+stops each run once its delivered policy scores 1000 over 2 measurements, within 20,480
+steps, so a setting that never solves runs the whole budget. Writes benchmarks/results/sweep-KIND.json
 (KIND: cpu, h100, ...; `--name` to choose).
 """
 
