@@ -50,7 +50,8 @@
               over 300, lowest 205.7) after 819,200 steps in 64.6 s, against 532.0 (5 of 8,
               lowest 50.2) after 409,600 in 114.2 s (`-envs32-h100.json`), and 16 seeds vmapped
               were all confirmed at Playground SAC's final 38.9 within 443,392 steps, in 1.35x
-              one seed's time (`playground_peer-PendulumSwingup-h100.json`), where with 8
+              one seed's time (an H100, 2026-11-27; an H200 stopping at 2 measurements: within
+              361,472 steps, 1.92x, `playground_peer-PendulumSwingup-h200.json`), where with 8
               environments 1 of 16 was not within 409,600 steps (`-envs32-target16-h100.json`).
               SAC in TD-MPC2's baselines: 354 after 1M steps. 16 seeds vmapped take 1.9x one
               seed's time per chunk on an H100 (8 environments: 2.75 s against 1.45 s): the
