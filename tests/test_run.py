@@ -51,6 +51,17 @@ def test_each_point_reports_the_fraction_of_seeds_solved_so_far(monkeypatch):
     np.testing.assert_array_equal(reported, expected)
 
 
+@pytest.mark.parametrize("returns, expected", [
+    ([900, 1000, 1000, 1000], 2000),   # reached at the second point and kept
+    ([1000, 980, 1000, 1000], 3000),   # a re-measurement lowered it: solved from the third
+    ([1000, 1000, 1000, 990], None),   # not solved at the end
+    ([1000, np.nan, 1000, 1000], 3000),  # NaN counts as not solved
+])
+def test_solved_at_is_where_the_returns_stay_at_the_threshold(returns, expected):
+    steps = np.array([1000, 2000, 3000, 4000])
+    assert run.solved_at(np.array(returns, np.float32), steps, 1000.0) == expected
+
+
 def test_the_first_non_finite_array_is_named_with_its_seed():
     _, init, _, _ = run.compiled_program(CONFIG, 2)
     sac = init(jax.random.split(jax.random.key(0), 2)).sac
