@@ -229,7 +229,7 @@ def data_parallel_metrics(outputs: Dict[str, jax.Array]) -> Dict[str, jax.Array]
     metrics = {name: jnp.nanmean(outputs[name], axis=0) for name in returns}
     metrics["env_steps"] = jnp.sum(outputs["env_steps"], axis=0)
     metrics.update({name: outputs[name][0]
-                    for name in METRIC_NAMES + EVAL_NAMES[1:]})
+                    for name in METRIC_NAMES + EVAL_NAMES if name not in returns})
     return metrics
 
 
