@@ -21,3 +21,21 @@ def test_a_missing_results_file_names_the_command_that_writes_it(monkeypatch, tm
     rows = tables.targets().splitlines()[2:]
     assert len(rows) == len(tables.TARGETS)
     assert all("_not measured yet_" in row for row in rows)
+
+
+def test_every_results_file_the_docs_name_is_there():
+    """A results file named in BENCHMARKS.md or docs/ (`name.json`; `-part-` abbreviations
+    aside) exists: the evidence a page cites is in the repository, not only in git history."""
+    import glob
+    import os
+    import re
+
+    root = os.path.dirname(tables.DOC)
+    pages = [tables.DOC] + sorted(glob.glob(os.path.join(root, "docs", "*.md")))
+    missing = {}
+    for page in pages:
+        with open(page) as f:
+            names = set(re.findall(r"`([A-Za-z][\w.-]*\.json)`", f.read()))
+        missing.update({name: page for name in names
+                        if not os.path.exists(os.path.join(tables.RESULTS, name))})
+    assert not missing, missing
