@@ -25,14 +25,18 @@ measured two ways for each `--seeds` count:
 End to end, each side is timed from its process's start to its trained result (writing results
 and exiting excluded on both): rejax's `to_result_s` (rejax_side.py, one process per seed count:
 imports, JAX's start, compile, the first call) against our summary's startup + compile + run,
-cold and warm (rejax keeps no compiled program between processes by default).
+cold and warm (rejax keeps no compiled program between processes by default). With `--rounds R`
+each seed count adds R - 1 rounds of a fresh rejax process and our warm script, alternated, and
+the warm ratio is of the medians of R (`to_result_rounds`): one of each spread by 10 % or more
+on a shared CPU.
 
 What differs between the two trainers (and is not matched): rejax uses swish activations,
 observation normalisation and 128 evaluation episodes per point; ours ReLU, raw observations and
 5 evaluation episodes plus 20 confirmation episodes for a candidate actor. Returns: rejax's last
 evaluation (mean over its seeds), ours the delivered actor's confirmed return (mean over seeds).
 
-    python -m benchmarks.rejax_peer --rejax-python /work/rejax-venv/bin/python --seeds 1 16
+    python -m benchmarks.rejax_peer --rejax-python /work/rejax-venv/bin/python --seeds 1 16 \
+        --rounds 3
 
 Writes benchmarks/results/rejax_peer-KIND.json (command, machine, versions, date).
 """
@@ -120,17 +124,25 @@ def main() -> None:
                         help="python of a virtual environment with rejax 0.1.3, gymnax 0.0.9")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 16])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="alternated end-to-end rounds (a rejax process, our warm script) "
+                             "per seed count; the warm ratio is of their medians")
     args = parser.parse_args()
+    if args.rounds < 1:
+        parser.error(f"--rounds must be at least 1, got {args.rounds}")
     source = provenance()
     rejax = None
-    for n in args.seeds:  # one process each: each count's to_result_s is a fresh process's
+    def rejax_side(n: int, repeats: int) -> dict:  # one process: its to_result_s is a fresh one's
         proc = subprocess.run([args.rejax_python,
                                os.path.join(ROOT, "benchmarks", "rejax_side.py"),
-                               "--seeds", str(n), "--repeats", str(args.repeats)],
+                               "--seeds", str(n), "--repeats", str(repeats)],
                               capture_output=True, text=True)
         if proc.returncode != 0:
             raise SystemExit(f"rejax side failed: {proc.stderr.strip()[-500:]}")
-        side = json.loads(proc.stdout.strip().splitlines()[-1])
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+    for n in args.seeds:
+        side = rejax_side(n, args.repeats)
         rejax = side if rejax is None else dict(rejax, runs=rejax["runs"] + side["runs"])
     rows = []
     for run in rejax["runs"]:
@@ -141,15 +153,20 @@ def main() -> None:
         evaluation_share = points * point_s / ours["run_s"]
         with tempfile.TemporaryDirectory() as cache:
             cold, warm = script(n, cache), script(n, cache)
+            rounds = dict(rejax=[run["to_result_s"]], ours_warm=[warm["to_result_s"]])
+            for _ in range(args.rounds - 1):  # alternated: a drifting machine slows both alike
+                rounds["rejax"].append(rejax_side(n, 1)["runs"][0]["to_result_s"])
+                rounds["ours_warm"].append(script(n, cache)["to_result_s"])
+        rejax_s, warm_s = (statistics.median(rounds[k]) for k in ("rejax", "ours_warm"))
         row = dict(seeds=n, rejax=run, program=ours, script_cold=cold, script_warm=warm,
+                   to_result_rounds=rounds,
                    evaluation_share=round(evaluation_share, 3),
                    evaluation_point_s=round(point_s, 5),
                    script_over_program=round(warm["run_s"] / ours["run_s"], 3),
                    rejax_over_program=round(run["run_s"] / ours["run_s"], 3),
                    rejax_over_script_to_result_cold=round(
                        run["to_result_s"] / cold["to_result_s"], 3),
-                   rejax_over_script_to_result_warm=round(
-                       run["to_result_s"] / warm["to_result_s"], 3))
+                   rejax_over_script_to_result_warm=round(rejax_s / warm_s, 3))
         rows.append(row)
         print(f"{n} seed(s): rejax {run['compile_s']:.1f} s compile + {run['run_s']:.2f} s run, "
               f"final {statistics.mean(run['final_return_per_seed']):.1f}; program "
@@ -157,8 +174,8 @@ def main() -> None:
               f"{statistics.mean(ours['final_per_seed']):.1f}; script run {warm['run_s']:.2f} s "
               f"(wall {cold['wall_s']:.1f} s cold, {warm['wall_s']:.1f} s warm); script/program "
               f"{row['script_over_program']}; evaluation {100 * evaluation_share:.1f} % of the "
-              f"program; to the result: rejax {run['to_result_s']:.1f} s, "
-              f"ours {cold['to_result_s']:.1f} s cold, {warm['to_result_s']:.1f} s warm",
+              f"program; to the result: rejax {rejax_s:.1f} s, ours {cold['to_result_s']:.1f} s "
+              f"cold, {warm_s:.1f} s warm (medians of {args.rounds} round(s) but cold)",
               flush=True)
     parts = make_train_parts(CONFIG)  # the script dispatches num_chunks programs
     write_result(result_name("rejax_peer"), dict(
