@@ -131,7 +131,7 @@ def main() -> None:
     if args.rounds < 1:
         parser.error(f"--rounds must be at least 1, got {args.rounds}")
     source = provenance()
-    rejax = None
+
     def rejax_side(n: int, repeats: int) -> dict:  # one process: its to_result_s is a fresh one's
         proc = subprocess.run([args.rejax_python,
                                os.path.join(ROOT, "benchmarks", "rejax_side.py"),
@@ -141,6 +141,7 @@ def main() -> None:
             raise SystemExit(f"rejax side failed: {proc.stderr.strip()[-500:]}")
         return json.loads(proc.stdout.strip().splitlines()[-1])
 
+    rejax = None
     for n in args.seeds:
         side = rejax_side(n, args.repeats)
         rejax = side if rejax is None else dict(rejax, runs=rejax["runs"] + side["runs"])

@@ -1,6 +1,10 @@
 """BENCHMARKS.md's generated tables are what benchmarks/results/*.json hold: a figure cannot be
 edited by hand away from the run that produced it (`python -m benchmarks.tables` rewrites them)."""
 
+import glob
+import os
+import re
+
 from benchmarks import tables
 
 
@@ -26,10 +30,6 @@ def test_a_missing_results_file_names_the_command_that_writes_it(monkeypatch, tm
 def test_every_results_file_the_docs_name_is_there():
     """A results file named in BENCHMARKS.md or docs/ (`name.json`; `-part-` abbreviations
     aside) exists: the evidence a page cites is in the repository, not only in git history."""
-    import glob
-    import os
-    import re
-
     root = os.path.dirname(tables.DOC)
     pages = [tables.DOC] + sorted(glob.glob(os.path.join(root, "docs", "*.md")))
     missing = {}
