@@ -571,7 +571,9 @@ def playground_peer() -> str:
 
         peer_steps = r["peer_arguments"]["num_timesteps"]
         earlier = r.get("peer_from")  # the peer ran in an earlier job (`--peer-from`)
-        return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}",
+        margin = r.get("stop_margin")  # ours stopped that far above it (`--stop-margin`)
+        return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}"
+                 + (f" (ours stopping at +{margin:g})" if margin else ""),
                  f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps"
                  + (f" (an earlier job, {earlier['date'][:16]})" if earlier else ""), reached(one),
                  f"{many['seeds']}: {reached(many)}",

@@ -67,3 +67,33 @@ def test_a_file_of_another_task_or_no_result_fails_in_one_line(tmp_path, monkeyp
     last = capsys.readouterr().err.strip().splitlines()[-1]
     assert last.startswith(f"playground_peer.py: error: --peer-from {path} ")
     assert message in last
+
+
+def test_ours_stops_at_the_peer_return_plus_the_margin_and_holds_only_at_the_return(monkeypatch):
+    """A seed stops at target + margin, but its reach holds where its fresh mean is at the
+    target itself (the peer's return), not at target + margin."""
+    seen = {}
+
+    def fake_training(config, seeds, seed, on_point):
+        seen["stop_return"] = config.stop_return
+        on_point(1024, {"delivered_return": 863.0, "stopped": 1.0}, None, 0.0)
+        return type("Result", (), {"state": type("State", (), {"delivered": type(
+            "Delivered", (), {"actor_params": None})})})
+
+    monkeypatch.setattr(playground_peer, "run_training", fake_training)
+    for fresh, holds in ((861.0, True), (860.9, False)):
+        monkeypatch.setattr(playground_peer, "fresh_returns", lambda *_, f=fresh: [f])
+        run = playground_peer.run_ours(playground_peer.PRESETS["CartpoleSwingup"], 1, 0,
+                                       target=861.0, fresh_episodes=1, margin=2.0)
+        assert seen["stop_return"] == 863.0
+        assert run["to_peer_final"]["env_steps"] == 1024 and run["reach_holds"] is holds
+
+
+@pytest.mark.parametrize("margin", ["-1", "nan"])
+def test_a_negative_or_nan_stop_margin_fails_in_one_line(monkeypatch, capsys, margin):
+    monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--stop-margin", margin])
+    with pytest.raises(SystemExit) as raised:
+        playground_peer.main()
+    assert raised.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        f"playground_peer.py: error: --stop-margin must be >= 0, got {float(margin)}")
