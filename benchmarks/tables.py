@@ -569,13 +569,21 @@ def playground_peer() -> str:
             return (f"{round(stopped * run['seeds'])}/{run['seeds']} reached it in {step:,} "
                     f"steps{fresh}")
 
+        singles = r.get("single_runs") or []  # `--runs N`: one is the median of N runs
+        if len(singles) > 1:
+            each = ", ".join(f"{run['to_peer_final']['seconds']:.1f} s" if run["to_peer_final"]
+                             else "not reached" for run in singles)
+            one_cell = (f"median of {len(singles)} runs (seeds {singles[0]['seed']}-"
+                        f"{singles[-1]['seed']}: {each}): {reached(one)}")
+        else:
+            one_cell = reached(one)
         peer_steps = r["peer_arguments"]["num_timesteps"]
         earlier = r.get("peer_from")  # the peer ran in an earlier job (`--peer-from`)
         margin = r.get("stop_margin")  # ours stopped that far above it (`--stop-margin`)
         return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}"
                  + (f" (ours stopping at +{margin:g})" if margin else ""),
                  f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps"
-                 + (f" (an earlier job, {earlier['date'][:16]})" if earlier else ""), reached(one),
+                 + (f" (an earlier job, {earlier['date'][:16]})" if earlier else ""), one_cell,
                  f"{many['seeds']}: {reached(many)}",
                  "-" if r["ours_over_peer_time"] is None else f"{r['ours_over_peer_time']:.2f}x",
                  "-" if r["seeds_over_one_time"] is None else f"{r['seeds_over_one_time']:.2f}x"]]

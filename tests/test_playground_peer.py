@@ -97,3 +97,21 @@ def test_a_negative_or_nan_stop_margin_fails_in_one_line(monkeypatch, capsys, ma
     assert raised.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         f"playground_peer.py: error: --stop-margin must be >= 0, got {float(margin)}")
+
+
+def test_the_one_seed_figure_is_the_median_run_an_unreached_run_counting_as_slowest():
+    runs = [{"seed": seed, "to_peer_final": None if t is None else {"seconds": t}}
+            for seed, t in ((0, None), (1, 40.0), (2, 35.0))]
+    assert playground_peer.median_run(runs)["seed"] == 1
+    assert playground_peer.median_run(runs[:1])["seed"] == 0
+    assert playground_peer.median_run([runs[0], runs[0], runs[2]])["to_peer_final"] is None
+
+
+@pytest.mark.parametrize("runs", ["0", "2"])
+def test_an_even_or_zero_number_of_runs_fails_in_one_line(monkeypatch, capsys, runs):
+    monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--runs", runs])
+    with pytest.raises(SystemExit) as raised:
+        playground_peer.main()
+    assert raised.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        f"playground_peer.py: error: --runs must be an odd number >= 1, got {runs}")
