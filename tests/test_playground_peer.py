@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import sys
+import types
 
 import pytest
 
@@ -69,24 +70,48 @@ def test_a_file_of_another_task_or_no_result_fails_in_one_line(tmp_path, monkeyp
     assert message in last
 
 
-def test_ours_stops_at_the_peer_return_plus_the_margin_and_holds_only_at_the_return(monkeypatch):
-    """A seed stops at target + margin, but its reach holds where its fresh mean is at the
-    target itself (the peer's return), not at target + margin."""
-    seen = {}
-
-    def fake_training(config, seeds, seed, on_point):
+def fake_training(seen, build_s, reached_s):
+    """run_training's stand-in: building takes `build_s` and the one point, where every seed
+    has stopped, comes `reached_s` after the call, on a clock it advances (`seen["now"]`)."""
+    def training(config, seeds, seed, on_ready, on_point):
         seen["stop_return"] = config.stop_return
+        seen["now"] += build_s
+        on_ready(build_s)
+        seen["now"] += reached_s - build_s
         on_point(1024, {"delivered_return": 863.0, "stopped": 1.0}, None, 0.0)
         return type("Result", (), {"state": type("State", (), {"delivered": type(
             "Delivered", (), {"actor_params": None})})})
+    return training
 
-    monkeypatch.setattr(playground_peer, "run_training", fake_training)
+
+@pytest.fixture
+def clock(monkeypatch):
+    seen = {"now": 0.0}
+    monkeypatch.setattr(playground_peer, "time", types.SimpleNamespace(time=lambda: seen["now"]))
+    return seen
+
+
+def test_ours_stops_at_the_peer_return_plus_the_margin_and_holds_only_at_the_return(
+        monkeypatch, clock):
+    """A seed stops at target + margin, but its reach holds where its fresh mean is at the
+    target itself (the peer's return), not at target + margin."""
+    monkeypatch.setattr(playground_peer, "run_training", fake_training(clock, 20.0, 30.0))
     for fresh, holds in ((861.0, True), (860.9, False)):
         monkeypatch.setattr(playground_peer, "fresh_returns", lambda *_, f=fresh: [f])
         run = playground_peer.run_ours(playground_peer.PRESETS["CartpoleSwingup"], 1, 0,
                                        target=861.0, fresh_episodes=1, margin=2.0)
-        assert seen["stop_return"] == 863.0
-        assert run["to_peer_final"]["env_steps"] == 1024 and run["reach_holds"] is holds
+        assert clock["stop_return"] == 863.0
+        assert run["to_peer_final"] == {"env_steps": 1024, "seconds": 30.0}
+        assert run["reach_holds"] is holds
+
+
+def test_a_run_reusing_compiled_programs_counts_the_given_build_time(monkeypatch, clock):
+    monkeypatch.setattr(playground_peer, "run_training", fake_training(clock, 0.5, 10.5))
+    monkeypatch.setattr(playground_peer, "fresh_returns", lambda *_: [861.0])
+    run = playground_peer.run_ours(playground_peer.PRESETS["CartpoleSwingup"], 1, 1,
+                                   target=861.0, fresh_episodes=1, build_s=20.0)
+    assert run["to_peer_final"]["seconds"] == 30.0 and run["points"][0][3] == 30.0
+    assert (run["own_build_s"], run["build_s"], run["wall_s"]) == (0.5, 20.0, 10.5)
 
 
 @pytest.mark.parametrize("margin", ["-1", "nan"])
