@@ -1,15 +1,16 @@
-"""BENCHMARKS.md's generated tables, written from benchmarks/results/*.json, so that a figure
-and the run that produced it cannot drift apart.
+"""The generated tables of BENCHMARKS.md and docs/performance.md (`DOCS`), written from
+benchmarks/results/*.json, so that a figure and the run that produced it cannot drift apart.
 
-    python -m benchmarks.tables            # rewrites every generated table in BENCHMARKS.md
-    python -m benchmarks.tables --check    # exit 1 if BENCHMARKS.md differs from its results
+    python -m benchmarks.tables            # rewrites every generated table in DOCS
+    python -m benchmarks.tables --check    # exit 1 if a page differs from its results
 
     python -m benchmarks.tables --results DIR --print   # from other results, to stdout
 
 A generated table stands between `<!-- generated: NAME -->` and `<!-- end generated -->` in
-BENCHMARKS.md; `TABLES[NAME]` writes it from the results files it names (each row or the line
-above the table says which file and its date; the file holds its command, machine, versions
-and date). Where a results file is missing, the table says so and which command writes it.
+one of the pages; `TABLES[NAME]` writes it from the results files it names (each row or the
+line above the table says which file and its date; the file holds its command, machine,
+versions and date). Where a results file is missing, the table says so and which command
+writes it.
 """
 
 from __future__ import annotations
@@ -28,6 +29,9 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, "benchmarks", "results")
 DOC = os.path.join(ROOT, "BENCHMARKS.md")
+DOCS = (DOC, os.path.join(ROOT, "docs", "performance.md"))
+"""The pages with generated tables: current figures, and the analyses behind those short of a
+target."""
 BLOCK = re.compile(r"(<!-- generated: (\S+) -->\n)(.*?)(<!-- end generated -->)", re.S)
 
 
@@ -884,11 +888,11 @@ TABLES: Dict[str, Callable[[], str]] = {
 
 
 def render(text: str) -> str:
-    """`text` (BENCHMARKS.md) with every generated table written anew from the results."""
+    """`text` (a page of `DOCS`) with every generated table written anew from the results."""
     def table(match):
         name = match.group(2)
         if name not in TABLES:
-            raise SystemExit(f"BENCHMARKS.md: no generated table named {name!r}")
+            raise SystemExit(f"no generated table named {name!r}")
         return match.group(1) + TABLES[name]() + match.group(4)
 
     return BLOCK.sub(table, text)
@@ -898,29 +902,30 @@ def main() -> int:
     global RESULTS
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true",
-                        help="exit 1 if BENCHMARKS.md's generated tables differ from the results")
+                        help="exit 1 if a page's generated tables differ from the results")
     parser.add_argument("--results", default=RESULTS,
                         help="the folder of results files (default benchmarks/results)")
     parser.add_argument("--print", action="store_true",
-                        help="print the rendered BENCHMARKS.md instead of writing it")
+                        help="print the rendered pages instead of writing them")
     args = parser.parse_args()
     RESULTS = args.results
-    with open(DOC) as f:
-        text = f.read()
-    new = render(text)
-    if args.print:
-        sys.stdout.write(new)
-        return 0
-    if args.check:
-        if new != text:
-            print("BENCHMARKS.md differs from benchmarks/results: run python -m benchmarks.tables",
-                  file=sys.stderr)
-            return 1
-        return 0
-    with open(DOC, "w") as f:
-        f.write(new)
-    print(f"wrote {DOC}: {len(BLOCK.findall(new))} generated tables")
-    return 0
+    differ = False
+    for doc in DOCS:
+        with open(doc) as f:
+            text = f.read()
+        new = render(text)
+        if args.print:
+            sys.stdout.write(new)
+        elif args.check:
+            if new != text:
+                print(f"{os.path.relpath(doc, ROOT)} differs from benchmarks/results: run "
+                      "python -m benchmarks.tables", file=sys.stderr)
+                differ = True
+        else:
+            with open(doc, "w") as f:
+                f.write(new)
+            print(f"wrote {doc}: {len(BLOCK.findall(new))} generated tables")
+    return 1 if differ else 0
 
 
 if __name__ == "__main__":
