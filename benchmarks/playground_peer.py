@@ -6,8 +6,8 @@
     `wrap_for_brax_training`, as Playground's training notebook runs it. Brax 0.14.2 rejects
     the config's `num_resets_per_eval`, which is dropped; its `network_factory` settings go to
     `make_sac_networks`. `--peer-steps` shortens its budget (recorded).
-(b) Ours: `run_training` on `playground/<task>` with the task's preset (or `--preset`), its
-    budget `--total-steps`, stopping each seed once its delivered actor's kept score reaches the
+(b) Ours: `run_training` on `playground/<task>` with the task's preset (or `--preset`, with
+    `--variant`'s fields replaced), its budget `--total-steps`, stopping each seed once its delivered actor's kept score reaches the
     peer's final return plus `--stop-margin` (over the preset's `stop_measurements`), for 1
     seed and for `--seeds` seeds vmapped in one program. The margin is there because a kept
     score is a mean over a few dozen episodes: a seed stopping the moment it reaches the
@@ -152,6 +152,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--task", default="CartpoleBalance", choices=playground.TASKS)
     parser.add_argument("--preset", default=None, help="ours (default: the task's preset)")
+    parser.add_argument("--variant", type=json.loads, default={}, metavar="JSON",
+                        help="ours: a JSON object of the preset's fields to replace, e.g. "
+                             "'{\"num_envs\": 128}' (recorded)")
     parser.add_argument("--seeds", type=int, default=16, help="ours, vmapped in one run")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--total-steps", type=int, default=102_400,
@@ -179,8 +182,12 @@ def main() -> None:
     preset = args.preset or args.task
     if preset not in PRESETS:
         parser.error(f"no preset {preset!r}; give --preset (one of {sorted(PRESETS)})")
-    config = PRESETS[preset].replace(env=playground.PREFIX + args.task,
-                                     total_steps=args.total_steps, buffer_size=args.total_steps)
+    try:
+        config = PRESETS[preset].replace(**{**args.variant, "env": playground.PREFIX + args.task,
+                                            "total_steps": args.total_steps,
+                                            "buffer_size": args.total_steps})
+    except (TypeError, ValueError) as error:
+        parser.error(f"--variant {json.dumps(args.variant)}: {error}")
     if args.quick:
         config = config.replace(total_steps=3072, buffer_size=3072, eval_every=1024)
     if args.peer_from:
@@ -210,7 +217,7 @@ def main() -> None:
     one = ours[1]["to_peer_final"]
     many = ours[args.seeds]["to_peer_final"]
     result = dict(
-        task=args.task, preset=preset, quick=args.quick, seed=args.seed,
+        task=args.task, preset=preset, variant=args.variant, quick=args.quick, seed=args.seed,
         stop_margin=args.stop_margin,
         peer_arguments={k: v for k, v in arguments.items() if k != "network_factory"},
         peer_network=network,

@@ -584,7 +584,10 @@ def playground_peer() -> str:
         peer_steps = r["peer_arguments"]["num_timesteps"]
         earlier = r.get("peer_from")  # the peer ran in an earlier job (`--peer-from`)
         margin = r.get("stop_margin")  # ours stopped that far above it (`--stop-margin`)
-        return [[r["task"], _machine(data), f"{r['peer']['final_return']:.1f}"
+        variant = r.get("variant")  # the preset's fields ours replaced (`--variant`)
+        task = r["task"] + (" (" + ", ".join(f"{k} {v}" for k, v in variant.items()) + ")"
+                            if variant else "")
+        return [[task, _machine(data), f"{r['peer']['final_return']:.1f}"
                  + (f" (ours stopping at +{margin:g})" if margin else ""),
                  f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps"
                  + (f" (an earlier job, {earlier['date'][:16]})" if earlier else ""), one_cell,

@@ -140,3 +140,16 @@ def test_an_even_or_zero_number_of_runs_fails_in_one_line(monkeypatch, capsys, r
     assert raised.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         f"playground_peer.py: error: --runs must be an odd number >= 1, got {runs}")
+
+
+@pytest.mark.parametrize("variant, why", [
+    ('{"num_envz": 128}', "SACConfig has no field(s) ['num_envz']"),
+    ('{"num_envs": 0}', "SACConfig.num_envs=0: must be a positive integer")])
+def test_a_variant_naming_no_field_or_a_bad_value_fails_in_one_line(monkeypatch, capsys, variant,
+                                                                    why):
+    monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--variant", variant])
+    with pytest.raises(SystemExit) as raised:
+        playground_peer.main()
+    assert raised.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        f"playground_peer.py: error: --variant {variant}: {why}")
