@@ -7,9 +7,10 @@
     the config's `num_resets_per_eval`, which is dropped; its `network_factory` settings go to
     `make_sac_networks`. `--peer-steps` shortens its budget (recorded).
 (b) Ours: `run_training` on `playground/<task>` with the task's preset (or `--preset`, with
-    `--variant`'s fields replaced), its budget `--total-steps`, stopping each seed once its delivered actor's kept score reaches the
-    peer's final return plus `--stop-margin` (over the preset's `stop_measurements`), for 1
-    seed and for `--seeds` seeds vmapped in one program. The margin is there because a kept
+    `--variant`'s fields replaced), its budget `--total-steps`, stopping each seed once its
+    delivered actor's kept score reaches the peer's final return plus `--stop-margin` (over
+    the preset's `stop_measurements`), for 1 seed and for `--seeds` seeds vmapped in one
+    program. The margin is there because a kept
     score is a mean over a few dozen episodes: a seed stopping the moment it reaches the
     peer's return delivers an actor whose fresh mean is as often just below it as above.
     With `--runs N` (odd) the one-seed side is N separate runs, of seeds `--seed` to
