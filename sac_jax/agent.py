@@ -155,10 +155,14 @@ def _optimizers(hyperparams: Hyperparams) -> dict:
 def make_agent(config: SACConfig, observation_size: int, action_size: int,
                action_low, action_high) -> Agent:
     """An `Agent` for observations of size O and actions of size A in [low, high] (each (A,))."""
-    low = tuple(float(x) for x in np.broadcast_to(np.asarray(action_low, np.float64), (action_size,)))
-    high = tuple(float(x) for x in np.broadcast_to(np.asarray(action_high, np.float64), (action_size,)))
+    def bounds(values) -> tuple:
+        return tuple(float(x) for x in np.broadcast_to(np.asarray(values, np.float64),
+                                                       (action_size,)))
+
+    low, high = bounds(action_low), bounds(action_high)
     if not all(math.isfinite(l) and math.isfinite(h) and l < h for l, h in zip(low, high)):
-        raise ValueError(f"action bounds must be finite with low < high, got low={low}, high={high}")
+        raise ValueError(f"action bounds must be finite with low < high, got low={low}, "
+                         f"high={high}")
     c = config
     hyperparams = of_config(c, action_size)
     hidden_dtype = jnp.bfloat16 if c.hidden_dtype == "bfloat16" else None

@@ -245,7 +245,8 @@ def load(directory: str, template: Union[Any, Callable[[dict], Any]], step: Opti
         raise CheckpointError(f"checkpoint {where}: unreadable ({type(error).__name__})") from None
     leaves = []
     for i, (record, want, template_leaf, got) in enumerate(zip(records, wanted, expected, stored)):
-        if got.shape != tuple(want.shape) or got.dtype != want.dtype or _crc32(got) != record["crc32"]:
+        if (got.shape != tuple(want.shape) or got.dtype != want.dtype
+                or _crc32(got) != record["crc32"]):
             raise CheckpointError(f"checkpoint {where}: damaged (array {i} does not match its "
                                   "checksum)")
         if _is_key(template_leaf):

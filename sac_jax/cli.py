@@ -43,14 +43,16 @@ def _one_line(event: _errors.ParseErrorEvent) -> None:
     """tyro's parse-error hook: raises UsageError with one line for `event`."""
     if isinstance(event, _errors.InstantiationFailure):
         message = " ".join(str(event.message).split())
-        raise UsageError(message if event.argument is None else f"{event.argument.display_name()}: {message}")
+        raise UsageError(message if event.argument is None
+                         else f"{event.argument.display_name()}: {message}")
     if isinstance(event, _errors.InvalidChoice):
         raise UsageError(f"{event.argument.display_name()}={event.value!r}: must be one of "
                          f"{list(event.choices)}")
     if isinstance(event, _errors.BadValue):
         if event.offending_value is None:
             raise UsageError(f"{event.argument.display_name()}: expected a value")
-        raise UsageError(f"{event.argument.display_name()}: takes no value, got {event.offending_value!r}")
+        raise UsageError(f"{event.argument.display_name()}: takes no value, got "
+                         f"{event.offending_value!r}")
     if isinstance(event, _errors.UnrecognizedArgs):
         raise UsageError(f"unrecognized arguments: {' '.join(event.tokens)} (see --help)")
     if isinstance(event, _errors.MissingArgs):
@@ -117,8 +119,8 @@ def fail(error: Exception, code: int) -> int:
     return code
 
 
-RESUME_FLAGS = ("--resume", "--resume-step", "--cache", "--no-cache", "--cache-dir", "--memory-check",
-                "--no-memory-check")
+RESUME_FLAGS = ("--resume", "--resume-step", "--cache", "--no-cache", "--cache-dir",
+                "--memory-check", "--no-memory-check")
 """The flags a resumed run or sweep accepts; it keeps its own configuration."""
 
 

@@ -121,7 +121,8 @@ class SACConfig:
     target_entropy: Optional[float] = None
     """Target entropy H-bar of J_alpha; None means -|A|."""
     alpha_loss: AlphaLoss = "alpha"
-    """J_alpha form: "alpha" = mean(-exp(log a)(log pi + H)); "log_alpha" = mean(-log a (log pi + H))."""
+    """J_alpha form: "alpha" = mean(-exp(log a)(log pi + H)); "log_alpha" =
+    mean(-log a (log pi + H))."""
     alpha_log_prob: AlphaLogProb = "resample"
     """log pi fed to J_alpha: "resample" draws a fresh action from the updated actor (CleanRL);
     "reuse" takes the actor step's log pi (before its update)."""

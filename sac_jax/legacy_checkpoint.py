@@ -64,7 +64,8 @@ def load(path: str, template: Union[Any, Callable[[dict], Any]]) -> Tuple[Any, d
             leaves.append(key)
             continue
         if got.shape != tuple(want.shape) or got.dtype != want.dtype:
-            raise CheckpointError(f"checkpoint {path}: array {i} is {got.dtype}{list(got.shape)}, "
-                                  f"expected {want.dtype}{list(want.shape)} (another configuration?)")
+            raise CheckpointError(f"checkpoint {path}: array {i} is {got.dtype}"
+                                  f"{list(got.shape)}, expected {want.dtype}"
+                                  f"{list(want.shape)} (another configuration?)")
         leaves.append(got)
     return jax.tree_util.tree_unflatten(treedef, leaves), meta

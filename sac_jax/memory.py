@@ -7,17 +7,17 @@ The run's data comes from the shapes of its real initial state (`jax.eval_shape`
     state   everything else a run carries: parameters, target networks, optimiser states,
             environments, the delivered actor, keys, metric sums and outputs
 
-A run holds its state once while training, and while a checkpoint is written, a copy where
-there is room for it (`copy_fits`: the copy and as much again free), so that training goes on
-during the write (`run_checkpoint.CheckpointWriter`): a copy of the state with the replay slots
-filled so far (`stored_slots`: at most `min(run_steps, buffer_size)` of each seed's buffer; on
-an accelerator rounded up to a power of two), on the device that holds the state (the host's
-memory, on the CPU). Without room, a checkpoint is written without a copy, while training
-waits (on the CPU, straight from the state; from an accelerator, fetched to host memory). Once the program is compiled, two more
+A run holds its state once while training, and while a checkpoint is written, a copy where there is
+room for it (`copy_fits`: the copy and as much again free), so that training goes on during the
+write (`run_checkpoint.CheckpointWriter`): a copy of the state with the replay slots filled so far
+(`stored_slots`: at most `min(run_steps, buffer_size)` of each seed's buffer; on an accelerator
+rounded up to a power of two), on the device that holds the state (the host's memory, on the CPU).
+Without room, a checkpoint is written without a copy, while training waits (on the CPU, straight
+from the state; from an accelerator, fetched to host memory). Once the program is compiled, two more
 parts are known: the chunk's `temporaries` (XLA's memory analysis of the compiled program:
-activations of the sampled batches, environment steps in flight), and on the CPU the
-`process`'s own resident memory before the state is made (Python, JAX, the compiled
-programs: about 0.9 GB for the MJX tasks, measured, not modelled). So
+activations of the sampled batches, environment steps in flight), and on the CPU the `process`'s own
+resident memory before the state is made (Python, JAX, the compiled programs: about 0.9 GB for the
+MJX tasks, measured, not modelled). So
 
     peak = process + replay + state + checkpoint copy + temporaries
     checkpoint copy = state + replay * stored_slots / buffer_size

@@ -64,7 +64,8 @@ class MLP(nn.Module):
         for i, size in enumerate(self.output_sizes):
             last = i == len(self.output_sizes) - 1
             kernel_init, bias_init = dense_initializers(
-                self.initializer, x.shape[-1], self.last_layer_init, last and not self.activate_final)
+                self.initializer, x.shape[-1], self.last_layer_init,
+                last and not self.activate_final)
             hidden = not last or self.activate_final
             x = nn.Dense(size, kernel_init=kernel_init, bias_init=bias_init,
                          dtype=self.hidden_dtype if hidden else None, name=f"Dense_{i}")(x)

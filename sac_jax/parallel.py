@@ -175,7 +175,8 @@ DATA_AXES = SEED_AXES.replace(sac=None, delivered=None, stopped=None, non_finite
 """`jax.vmap` axes of a data-parallel run's state over its D device shares: the learner state
 (every update averages over the axis, so all shares hold the same), the delivered actor and the
 stop flag (selected on evaluation returns averaged over the axis), the traced hyperparameters
-and the counters are held once; environments, replay buffer data, keys, sums and outputs have a leading axis D."""
+and the counters are held once; environments, replay buffer data, keys, sums and outputs have
+a leading axis D."""
 
 
 def _constrain(tree, axes, mesh: Mesh):
@@ -185,12 +186,12 @@ def _constrain(tree, axes, mesh: Mesh):
 
 def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     """`TrainParts` of one run of `config` spread over the mesh's single axis (see the module
-    docstring); `config` holds the global sizes. `init(key, hyperparams=None)`, `advance` and `evaluate` map
-    the one-device program over the D shares with `jax.vmap` (axis named like the mesh's, so the
-    updates' `pmean` averages over it) and state the split of the shares over the devices as
-    sharding constraints, which XLA's partitioner turns into per-device programs and an
-    all-reduce per update (jit them). The runner's `sac` and counters are as in a one-device
-    run; its `env`, `buffer.data`, `key`, `sums` and `outputs` have a leading axis D
+    docstring); `config` holds the global sizes. `init(key, hyperparams=None)`, `advance` and
+    `evaluate` map the one-device program over the D shares with `jax.vmap` (axis named like the
+    mesh's, so the updates' `pmean` averages over it) and state the split of the shares over the
+    devices as sharding constraints, which XLA's partitioner turns into per-device programs and an
+    all-reduce per update (jit them). The runner's `sac` and counters are as in a one-device run;
+    its `env`, `buffer.data`, `key`, `sums` and `outputs` have a leading axis D
     (`data_parallel_metrics` turns the outputs into the run's metrics)."""
     axis = _axis(mesh)
     parts = make_train_parts(local_config(config, mesh.size, axis))

@@ -272,8 +272,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         call adds to the summary's `compile_s`).
     on_point(env_steps, means, eval_returns, elapsed_s): at every evaluation point, with the
         metrics averaged over seeds and each seed's evaluation return; for a task with a solved
-        threshold (`envs.spec(env).solved_return`), means["solved"] is the fraction of seeds whose delivered
-        actor has reached it (`delivered_return`), and means["stopped"] the fraction stopped.
+        threshold (`envs.spec(env).solved_return`), means["solved"] is the fraction of seeds whose
+        delivered actor has reached it (`delivered_return`), and means["stopped"] the fraction
+        stopped.
     on_checkpoint(state, position): after every evaluation point and when stopping on request,
         with the loop's `Position` (`ends_run`: whether the run ends there, at its last point
         or a stop);

@@ -162,13 +162,14 @@ class CheckpointWriter(BackgroundWrites):
     a copy of the state in new device buffers (`_device_copy`: the replay slots filled so far,
     cut on the device, and the rest by `jax.device_put(..., may_alias=False)`; the next chunk
     may then take over the state's own) and returns; the
-    background thread copies it to host memory and writes it while the device trains on. When
-    saves come faster than writes, the thread writes the newest state saved and skips the older
-    ones waiting. A device without room for the copy (`_room_for_copy`) gets none: `save` then
-    waits for the writes under way, whose copies it frees, and fetches the state to host memory
-    in line; so does a state whose copy is at most `memory.IN_LINE_COPY_BYTES`, without waiting
-    (a millisecond's fetch, where a device copy would be held beside the next chunk). (H100, 256 seeds of the `fast` preset: saving in line cost 8.6 s of a 19.4 s run;
-    copying to the host in line still 1.8-2.0 s of an 11.5 s run, BENCHMARKS.md.) A state on
+    background thread copies it to host memory and writes it while the device trains on. When saves
+    come faster than writes, the thread writes the newest state saved and skips the older ones
+    waiting. A device without room for the copy (`_room_for_copy`) gets none: `save` then waits for
+    the writes under way, whose copies it frees, and fetches the state to host memory in line; so
+    does a state whose copy is at most `memory.IN_LINE_COPY_BYTES`, without waiting (a millisecond's
+    fetch, where a device copy would be held beside the next chunk). (H100, 256 seeds of the `fast`
+    preset: saving in line cost 8.6 s of a 19.4 s run; copying to the host in line still 1.8-2.0 s
+    of an 11.5 s run, BENCHMARKS.md.) A state on
     the CPU is always fetched in line: there the fetch is a view, and the copy the checkpoint
     keeps holds the filled replay slots only, where a device copy would hold every slot; where
     host memory has no room for that copy (`sac_jax.memory.copy_fits`), the state is written

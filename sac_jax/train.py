@@ -509,8 +509,8 @@ def make_train(config: SACConfig,
     `env_steps` (environment steps done), `eval_return`, `confirm_return`, `kept_return`,
     `delivered_return` and `stopped` (`EVAL_NAMES`), `train_return` (mean return of training
     episodes ended in the period, NaN if none), and the period means of the update metrics in
-    `METRIC_NAMES` (NaN where unused, and after a seed stopped). The runner's `delivered.actor_params` is the
-    actor the run delivers (`sac_jax.selection`).
+    `METRIC_NAMES` (NaN where unused, and after a seed stopped). The runner's
+    `delivered.actor_params` is the actor the run delivers (`sac_jax.selection`).
     `randomness`, if given, is the source of acting's and learning's draws
     (`sac_jax.randomness`; e.g. `replay(config, record_draws(config, key))`), default the
     run's PRNG keys.
