@@ -1,6 +1,7 @@
-"""benchmarks/playground_peer.py's `--peer-from`: the peer's run taken from an earlier result
-file of the same task (when both sides exceed one device job), with its provenance kept, and a
-one-line error for a file of another task or no result at all."""
+"""benchmarks/playground_peer.py without a GPU: `--peer-from` (the peer's run taken from an
+earlier result file of the same task, with its provenance kept), ours stopping at the peer's
+return plus `--stop-margin`, the median of `--runs` single-seed runs and the build time they
+share, and a one-line error for every bad flag or file."""
 
 from __future__ import annotations
 
@@ -114,16 +115,6 @@ def test_a_run_reusing_compiled_programs_counts_the_given_build_time(monkeypatch
     assert (run["own_build_s"], run["build_s"], run["wall_s"]) == (0.5, 20.0, 10.5)
 
 
-@pytest.mark.parametrize("margin", ["-1", "nan"])
-def test_a_negative_or_nan_stop_margin_fails_in_one_line(monkeypatch, capsys, margin):
-    monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--stop-margin", margin])
-    with pytest.raises(SystemExit) as raised:
-        playground_peer.main()
-    assert raised.value.code == 2
-    assert capsys.readouterr().err.strip().splitlines()[-1] == (
-        f"playground_peer.py: error: --stop-margin must be >= 0, got {float(margin)}")
-
-
 def test_the_one_seed_figure_is_the_median_run_an_unreached_run_counting_as_slowest():
     runs = [{"seed": seed, "to_peer_final": None if t is None else {"seconds": t}}
             for seed, t in ((0, None), (1, 40.0), (2, 35.0))]
@@ -132,24 +123,19 @@ def test_the_one_seed_figure_is_the_median_run_an_unreached_run_counting_as_slow
     assert playground_peer.median_run([runs[0], runs[0], runs[2]])["to_peer_final"] is None
 
 
-@pytest.mark.parametrize("runs", ["0", "2"])
-def test_an_even_or_zero_number_of_runs_fails_in_one_line(monkeypatch, capsys, runs):
-    monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--runs", runs])
+@pytest.mark.parametrize("flags, error", [
+    (["--stop-margin", "-1"], "--stop-margin must be >= 0, got -1.0"),
+    (["--stop-margin", "nan"], "--stop-margin must be >= 0, got nan"),
+    (["--runs", "0"], "--runs must be an odd number >= 1, got 0"),
+    (["--runs", "2"], "--runs must be an odd number >= 1, got 2"),
+    (["--variant", '{"num_envz": 128}'],
+     """--variant {"num_envz": 128}: SACConfig has no field(s) ['num_envz']"""),
+    (["--variant", '{"num_envs": 0}'],
+     '--variant {"num_envs": 0}: SACConfig.num_envs=0: must be a positive integer')])
+def test_a_bad_flag_fails_in_one_line_before_anything_runs(monkeypatch, capsys, flags, error):
+    monkeypatch.setattr(sys, "argv", ["playground_peer.py", *flags])
     with pytest.raises(SystemExit) as raised:
         playground_peer.main()
     assert raised.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
-        f"playground_peer.py: error: --runs must be an odd number >= 1, got {runs}")
-
-
-@pytest.mark.parametrize("variant, why", [
-    ('{"num_envz": 128}', "SACConfig has no field(s) ['num_envz']"),
-    ('{"num_envs": 0}', "SACConfig.num_envs=0: must be a positive integer")])
-def test_a_variant_naming_no_field_or_a_bad_value_fails_in_one_line(monkeypatch, capsys, variant,
-                                                                    why):
-    monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--variant", variant])
-    with pytest.raises(SystemExit) as raised:
-        playground_peer.main()
-    assert raised.value.code == 2
-    assert capsys.readouterr().err.strip().splitlines()[-1] == (
-        f"playground_peer.py: error: --variant {variant}: {why}")
+        f"playground_peer.py: error: {error}")
