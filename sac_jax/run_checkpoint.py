@@ -31,7 +31,7 @@ LAYOUT = 3
 """The training state's layout, in each checkpoint's metadata ("layout"). 3 since
 `SACConfig.stop_measurements` (2026-11-28: the `stopped` output); 2 since the paired selection
 (2026-11-28: `Delivered.count`, the `kept_return` output, the kept actor's slots in
-`train.Pending`); a checkpoint without it holds layout 1. Earlier layouts are read into the
+`eval_point.Pending`); a checkpoint without it holds layout 1. Earlier layouts are read into the
 current one (`_stored_as`, `_from_layout`), so earlier runs' policies still load and their
 runs resume (with `stop_measurements` 1, the rule they ran under: `run_dir.read_config`)."""
 MIN_INTERVAL_S = 5.0

@@ -7,12 +7,12 @@ One `lax.scan` runs all iterations; iteration i:
               with `normalize_observations`, add the observations acted on to the running
               statistics (`sac_jax.observation_norm`)
     learn     after the prefill: updates_per_step `sac_update`s on freshly sampled batches
-    evaluate  after every eval_every training steps: deterministic returns on separate
-              environment instances, the selection of the delivered actor (`sac_jax.selection`:
-              a candidate must beat the kept actor on the same episodes), and the period's
-              metric means written to the outputs; with `eval_alongside`, the point's
-              episodes are instead stepped once per iteration beside those of the D points
-              before it (`Pending`), and scored with the selection D points later,
+    evaluate  after every eval_every training steps (`sac_jax.eval_point`): deterministic
+              returns on separate environment instances, the selection of the delivered actor
+              (`sac_jax.selection`: a candidate must beat the kept actor on the same episodes),
+              and the period's metric means written to the outputs; with `eval_alongside`,
+              the point's episodes are instead stepped once per iteration beside those of the
+              D points before it (`Pending`), and scored with the selection D points later,
               D = ceil(episode steps / iterations per point)
     stop      with `stop_when_solved`, a seed whose delivered actor is solved (its kept score,
               averaged over at least `stop_measurements` measurements, at `stop_at`) learns
@@ -47,7 +47,7 @@ keep their keys (split from the same chain either way).
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, Dict, NamedTuple, Optional, Tuple
+from typing import Callable, Dict, NamedTuple, Optional, Tuple
 
 import flax.struct
 import jax
@@ -59,7 +59,7 @@ from sac_jax import observation_norm, selection
 from sac_jax.agent import Agent, SACState, make_agent
 from sac_jax.randomness import Draws, FromKeys, Replay, check
 from sac_jax.config import SACConfig
-from sac_jax.evaluation import Episodes, begin, initial_states, run_episodes, step_episodes
+from sac_jax.eval_point import EvalPoints, Pending
 from sac_jax.replay_buffer import ReplayBuffer, Transition
 from sac_jax.updates import sac_update, sample_noise
 
@@ -70,29 +70,6 @@ return over `confirm_episodes` fresh episodes (NaN where it was no candidate); t
 return on those episodes (NaN where not used); the kept score of the delivered actor after the
 point (`sac_jax.selection`); 1.0 if the seed has stopped learning after the point
 (`stop_when_solved`), else 0.0."""
-
-
-class Pending(flax.struct.PyTreeNode):
-    """The evaluations under way with `SACConfig.eval_alongside`, one slot per evaluation point
-    whose episodes are still being stepped: `actor_params` (leading axis 2 D) the actors each
-    slot evaluates, the point's actor at 2 d and the kept actor at 2 d + 1, `episodes` the
-    `Episodes` of all slots in one batch, slot d's 2 E (`point_episodes`) at rows 2 d E to
-    2 (d + 1) E - 1, `env_steps` (D,) int32 each point's environment steps, 0 where the slot
-    holds no evaluation (a point has done at least eval_every steps), `kept_steps` (D,) int32
-    the `env_steps` of the kept actor the slot evaluates (`selection.Delivered`).
-    One batch gives one vmapped environment step: a batch per slot, stepped under a `vmap`
-    over the slots, made AcrobotSwingup's two programs compile in 32.9 s instead of 27.9 s
-    (15.8 s without `eval_alongside`; 2 CPU cores, one compile each, ad hoc)."""
-
-    actor_params: Any
-    episodes: Episodes
-    env_steps: jax.Array
-    kept_steps: jax.Array
-
-    @property
-    def active(self) -> jax.Array:
-        """(D,) bool: whether each slot holds an evaluation."""
-        return self.env_steps > 0
 
 
 class RunnerState(flax.struct.PyTreeNode):
@@ -196,18 +173,11 @@ def agent_for(config: SACConfig) -> Tuple[Agent, object]:
 def make_train_parts(config: SACConfig,
                      progress: Optional[Callable[[Dict[str, jax.Array]], None]] = None,
                      randomness=None) -> TrainParts:
-    """The training loop as `TrainParts` (see the module docstring and `make_train`).
-
-    An evaluation point steps the evaluation's `eval_episodes` and the confirmation's
-    `confirm_episodes` (`sac_jax.selection`) with the point's actor, and the same episodes with
-    the kept actor, as one batch, so the confirmation is computed at every point (it counts for
-    a candidate only). One batch keeps one traced copy of the
-    environment's step for evaluation instead of two: the `fast` preset's chunk compiles in
-    13.8 s instead of 18.3 s on 2 CPU cores and trains to the same solved steps as fast (4
-    seeds: runs of 2.0-2.6 s either way); under `vmap` (many seeds) a per-candidate branch was
-    computed for every seed anyway, and one batch halves the sequential steps of a point."""
+    """The training loop as `TrainParts` (see the module docstring and `make_train`); its
+    evaluation points are `sac_jax.eval_point`'s."""
     agent, env = agent_for(config)
     vec = envs.VectorEnv(env, config.num_envs)
+    points = EvalPoints(config, env)
     keys = FromKeys(config.num_envs, agent.action_low, agent.action_high,
                     config.updates_per_step, config.batch_size)
     source = keys if randomness is None else randomness
@@ -216,8 +186,6 @@ def make_train_parts(config: SACConfig,
     sum_names = METRIC_NAMES + ("train_return",)
     watched = non_finite_fields(config)
     nan = jnp.float32(jnp.nan)
-    # eval_alongside: D slots, so that a point's episodes have ended D points later
-    depth = -(-env.max_episode_steps // period) if config.eval_alongside else 0
 
     # The key chain: init splits (k_sac, k_env, k_run); each iteration splits the run key into
     # (key, k_act, k_random, k_learn); each evaluation splits (key, k_eval). `record_draws`
@@ -251,112 +219,15 @@ def make_train_parts(config: SACConfig,
         return sac, code, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
                            else nan for name in METRIC_NAMES}
 
-    def mean_return(returns: jax.Array) -> jax.Array:
-        """Mean of deterministic returns (over all devices' episodes in a data-parallel run,
-        so every device selects alike)."""
-        axis = config.data_parallel_axis
-        return jnp.mean(returns) if axis is None else jax.lax.pmean(jnp.mean(returns), axis)
-
-    episodes = config.eval_episodes + config.confirm_episodes  # E, an actor's at a point
-
-    def point_episodes(k_eval: jax.Array) -> Episodes:
-        """A point's 2 E episodes: the point's actor's evaluation episodes, then its
-        confirmation's (from a key no other evaluation draws from), then the same E initial
-        states again for the kept actor. One batch, one traced copy of reset and step."""
-        starts = initial_states(env, jnp.concatenate([
-            jax.random.split(k_eval, config.eval_episodes),
-            jax.random.split(jax.random.fold_in(k_eval, 1), config.confirm_episodes)]))
-        return begin(jax.tree_util.tree_map(lambda x: jnp.concatenate([x, x]), starts))
-
-    def point_actors(actor, delivered: selection.Delivered):
-        """A point's two actors, its own and the kept one, stacked (group 0 and 1)."""
-        return jax.tree_util.tree_map(lambda *x: jnp.stack(x), actor, delivered.actor_params)
-
-    def act_by_group(agent: Agent, actors):
-        """Deterministic actions for rows in groups of E, group g acting with actor g
-        (`actors`: parameters with a leading axis of groups)."""
-        def act(obs):
-            by_group = obs.reshape((-1, episodes) + obs.shape[1:])
-            return jax.vmap(agent.act)(actors, by_group).reshape(obs.shape[0], -1)
-        return act
-
-    def select(delivered, actor, returns: jax.Array, paired: jax.Array, env_steps: jax.Array):
-        """The selection step (`sac_jax.selection`) on one point's 2 E returns: (kept actor,
-        evaluation return, confirmed return, kept actor's return)."""
-        score = mean_return(returns[:config.eval_episodes])
-        kept, confirmed, kept_return = selection.select(
-            delivered, actor, score, mean_return(returns[config.eval_episodes:episodes]),
-            mean_return(returns[episodes + config.eval_episodes:]), paired, env_steps)
-        return kept, score, confirmed, kept_return
-
-    def step_pending(agent: Agent, pending: Pending) -> Pending:
-        return pending.replace(episodes=step_episodes(
-            env, act_by_group(agent, pending.actor_params), pending.episodes))
-
-    def select_pending(delivered, pending: Pending, slot: jax.Array):
-        """`select` on the evaluation in `slot` if it holds one (else NaN returns); its kept
-        actor's returns count only if that is still the kept actor."""
-        out = select(delivered, jax.tree_util.tree_map(lambda x: x[2 * slot], pending.actor_params),
-                     pending.episodes.returns.reshape(depth, 2 * episodes)[slot],
-                     pending.kept_steps[slot] == delivered.env_steps, pending.env_steps[slot])
-        keep = lambda new, old: jnp.where(pending.active[slot], new, old)
-        return (jax.tree_util.tree_map(keep, out[0], delivered),) + tuple(
-            keep(x, nan) for x in out[1:])
-
-    def evaluate_alongside(agent: Agent, runner: RunnerState, point: Episodes, index, env_steps):
-        """Scores the evaluation that has ended in this point's slot, starts this point's
-        there, and at the last point runs every evaluation under way to its end and selects
-        on them oldest first. (kept actor, evaluation, confirmed and kept returns, pending)."""
-        slot = index % depth
-        old = runner.pending
-        delivered, *returns = select_pending(runner.delivered, old, slot)
-        put = lambda rows, new: jax.lax.dynamic_update_slice_in_dim(
-            rows, new, slot * 2 * episodes, 0)
-        actors = point_actors(runner.sac.actor_params, delivered)
-        pending = Pending(
-            actor_params=jax.tree_util.tree_map(
-                lambda all_, two: jax.lax.dynamic_update_slice_in_dim(all_, two, 2 * slot, 0),
-                old.actor_params, actors),
-            episodes=Episodes(*jax.tree_util.tree_map(put, old.episodes[:4], point[:4]),
-                              old.episodes.steps),
-            env_steps=old.env_steps.at[slot].set(env_steps),
-            kept_steps=old.kept_steps.at[slot].set(delivered.env_steps))
-
-        def drain(args):
-            delivered, _, pending = args
-            pending = pending.replace(episodes=run_episodes(
-                env, act_by_group(agent, pending.actor_params),
-                pending.episodes._replace(steps=jnp.int32(0))))
-
-            def fold(delivered, s):
-                delivered, *returns = select_pending(delivered, pending, s)
-                return delivered, returns
-
-            oldest_first = (slot + 1 + jnp.arange(depth)) % depth
-            delivered, returns = jax.lax.scan(fold, delivered, oldest_first)
-            return (delivered, [r[-1] for r in returns],
-                    pending.replace(env_steps=jnp.zeros_like(pending.env_steps)))
-
-        return jax.lax.cond(index == config.num_evals - 1, drain, lambda args: args,
-                            (delivered, returns, pending))
-
     def evaluate_period(agent: Agent, runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
         key, k_eval = jax.random.split(runner.key)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
-        actor, pending = runner.sac.actor_params, runner.pending
         with jax.named_scope("evaluate"):
-            point = point_episodes(k_eval)
-            if depth:
-                delivered, returns, pending = evaluate_alongside(
-                    agent, runner, point, index, out["env_steps"])
-            else:
-                actors = point_actors(actor, runner.delivered)
-                delivered, *returns = select(
-                    runner.delivered, actor,
-                    run_episodes(env, act_by_group(agent, actors), point).returns,
-                    jnp.bool_(True), out["env_steps"])
+            delivered, returns, pending = points.evaluate(
+                agent, runner.sac.actor_params, runner.delivered, runner.pending, k_eval, index,
+                out["env_steps"])
             out["eval_return"], out["confirm_return"], out["kept_return"] = returns
         stopped = runner.stopped
         if config.stop_when_solved:
@@ -401,9 +272,9 @@ def make_train_parts(config: SACConfig,
             code = keep(jnp.int32(0), code)
         non_finite = jnp.where(runner.non_finite == 0, code, runner.non_finite)
         pending = runner.pending
-        if depth:
+        if points.depth:
             with jax.named_scope("evaluate"):
-                pending = step_pending(agent, pending)
+                pending = points.step_pending(agent, pending)
         metrics["train_return"] = jnp.sum(jnp.where(step.done, step.episode_return, 0.0))
         counts = {name: jnp.isfinite(m).astype(jnp.float32) for name, m in metrics.items()}
         counts["train_return"] = jnp.sum(step.done).astype(jnp.float32)
@@ -455,17 +326,8 @@ def make_train_parts(config: SACConfig,
                              terminated=jnp.float32(0))
         zero = jnp.float32(0)
         sac = agent.with_hyperparams(hyperparams).init(k_sac)
-        pending = None
-        if depth:  # empty slots; their placeholder episodes (from a key of their own) have ended
-            placeholder = point_episodes(jax.random.fold_in(k_env, 1))
-            rows = lambda x: jnp.concatenate([x] * depth)
-            pending = Pending(
-                actor_params=jax.tree_util.tree_map(
-                    lambda x: jnp.broadcast_to(x, (2 * depth,) + x.shape), sac.actor_params),
-                episodes=Episodes(*jax.tree_util.tree_map(rows, placeholder[:2]),
-                                  jnp.zeros(depth * 2 * episodes, bool),
-                                  rows(placeholder.returns), placeholder.steps),
-                env_steps=jnp.zeros(depth, jnp.int32), kept_steps=jnp.zeros(depth, jnp.int32))
+        # empty slots of evaluations under way, from a key of their own
+        pending = points.init_pending(jax.random.fold_in(k_env, 1), sac.actor_params)
         return RunnerState(
             sac=sac, env=env_state, buffer=rb.init(config.buffer_size, example),
             key=k_run, iteration=jnp.int32(0), sums={name: (zero, zero) for name in sum_names},
