@@ -101,7 +101,8 @@ class EvalPoints:
         `actor`: (delivered actor after the point, [evaluation return, confirmed return, kept
         actor's return], pending). Without `eval_alongside` the point's episodes run to their
         end here; with it they start in a slot of `pending`, and the returns are those of the
-        point D earlier, NaN where there is none."""
+        point D earlier, NaN where there is none (at the last point every evaluation under way
+        runs to its end, and they are the last point's)."""
         point = self.start(k_eval)
         if self.depth:
             return self._alongside(agent, actor, delivered, pending, point, index, env_steps)
