@@ -4,9 +4,9 @@ Lowers the programs `scripts/train.py` compiles for a preset (`init`, `advance` 
 of `sac_jax.train.make_train_parts`, one seed) to StableHLO with locations, and counts each
 operation once, under the innermost Python frame it was traced from (its file, and the
 package: the folder under site-packages, or the repository's top folder; "(none)" where the
-operation has no frame, as for some of JAX's own lowerings, or only this script's call). This is the program
-before XLA optimises it, so a count is a measure of what XLA's passes have to work through,
-not of the kernels that run. Writes benchmarks/results/program_sources-PRESET-KIND.json
+operation has no frame, as for some of JAX's own lowerings, or only this script's call). This
+is the program before XLA optimises it, so a count measures what XLA's passes work through,
+not the kernels that run. Writes benchmarks/results/program_sources-PRESET-KIND.json
 (command, machine, versions, date).
 
     python -m benchmarks.program_sources --preset fast

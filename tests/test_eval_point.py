@@ -55,10 +55,10 @@ def test_the_selection_sees_each_actors_own_returns():
 
 
 def test_evaluations_alongside_keep_one_slot_per_point_until_an_episode_has_ended():
-    _, env = agent_for(CONFIG)
+    agent, env = agent_for(CONFIG)
     points = EvalPoints(CONFIG.replace(eval_alongside=True), env)
     assert points.depth == 3 == -(-env.max_episode_steps // CONFIG.iterations_per_eval)
-    actor = agent_for(CONFIG)[0].init(jax.random.key(0)).actor_params
+    actor = agent.init(jax.random.key(0)).actor_params
     pending = points.init_pending(jax.random.key(1), actor)
     assert pending.episodes.returns.shape == (3 * 2 * points.episodes,)
     assert not np.asarray(pending.active).any() and not np.asarray(pending.episodes.alive).any()
