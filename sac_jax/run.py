@@ -106,13 +106,17 @@ def evaluation_points(config: SACConfig, runner: RunnerState
     """[(env_steps, `point_means`, each seed's evaluation return)] of every evaluation point
     the state `runner` (e.g. a checkpoint's) has done, in order: what `on_point` was called
     with, for a writer rebuilding its record of a resumed run."""
-    outputs = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
-    points = []
-    for p in range(points_done(config, jax.device_get(runner.iteration))):
-        point = {k: v[:, p] for k, v in outputs.items()}
-        points.append((int(point["env_steps"][0]), point_means(config, point),
-                       point["eval_return"]))
-    return points
+    outputs = jax.device_get(runner.outputs)
+    return [_point(config, outputs, p)
+            for p in range(points_done(config, jax.device_get(runner.iteration)))]
+
+
+def _point(config: SACConfig, outputs: Dict[str, np.ndarray], p: int
+           ) -> Tuple[int, Dict[str, float], np.ndarray]:
+    """(environment step, `point_means`, each seed's evaluation return) of evaluation point `p`
+    of a state's `outputs` (on the host: {metric: (seeds, num_evals)})."""
+    point = {k: np.asarray(v)[:, p] for k, v in outputs.items()}
+    return int(point["env_steps"][0]), point_means(config, point), point["eval_return"]
 
 
 def solved_at(returns: np.ndarray, env_steps: np.ndarray, threshold: float) -> Optional[int]:
@@ -309,9 +313,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         runner = init(keys, *([values] if values else []))
         position = Position(startup_s=t0 - (t0 if started is None else started))
     else:
-        runner, position = resume
-        runner = jax.device_put(runner, sharding)
-        position = position.copy()
+        runner, position = jax.device_put(resume[0], sharding), resume[1].copy()
     built = time.perf_counter() - t0
     position.compile_s += built
     if on_ready is not None:
@@ -338,48 +340,32 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         new_points = points_reached(runner)
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position.run_s = host_start - start
-        # the updates' sticky per-seed codes (`RunnerState.non_finite`): one small fetch a chunk;
-        # a compiled check of the whole state here cost a cold `fast` run 0.3 s of compiling
-        # (median of 7 alternated pairs, 2 CPU cores)
-        codes = np.broadcast_to(jax.device_get(runner.non_finite), (seeds,))
-        if codes.any():
-            bad = non_finite_name(runner.sac, codes, non_finite_fields(config))
-            steps = int(runner.iteration) * config.num_envs
-            if stop_on_non_finite:
-                status, message = NON_FINITE, (f"non-finite {bad} between environment steps "
-                                               f"{start_steps} and {steps}")
-                break
-            for run in np.flatnonzero(codes):
-                position.non_finite.setdefault(int(run), steps)
+        steps = int(runner.iteration) * config.num_envs
+        message = _non_finite(config, runner, seeds, position, (start_steps, steps),
+                              stop_on_non_finite)
+        if message:
+            status = NON_FINITE
+            break
         reached = new_points > points
         if reached:
             points = new_points
             # indexed on the host: a device-side index would compile an op per new point
-            outputs = jax.device_get(runner.outputs)
-            point = {k: v[:, points - 1] for k, v in outputs.items()}
-            step = int(point["env_steps"][0])
+            step, means, returns = _point(config, jax.device_get(runner.outputs), points - 1)
             position.walls[step] = position.run_s
             if on_point is not None:
-                on_point(step, point_means(config, point), np.asarray(point["eval_return"]),
-                         position.run_s)
+                on_point(step, means, returns, position.run_s)
         stop = should_stop is not None and should_stop()
-        position.env_steps = int(runner.iteration) * config.num_envs
+        position.env_steps = steps
         position.ends_run = bool(stop or finished(runner) or all_stopped(runner))
         if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
             on_checkpoint(runner, position)
         position.host_s += time.perf_counter() - host_start
         if stop and not finished(runner):
-            steps = int(runner.iteration) * config.num_envs
             status, message = INTERRUPTED, f"stopped at environment step {steps}"
             break
 
     position.run_s = time.perf_counter() - start
-    metrics = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
-    walls = np.full(config.num_evals, np.nan)
-    for p, step in enumerate(metrics["env_steps"][0, :points]):
-        walls[p] = position.walls.get(int(step), np.nan)
-    metrics["wall_s"] = np.broadcast_to(walls, metrics["eval_return"].shape).copy()
-    metrics["steps_per_s"] = metrics["env_steps"] / metrics["wall_s"]
+    metrics = _run_metrics(config, runner, position, points)
     summary = dict(run_summary(config, metrics, points, position,
                                jax.device_get(runner.delivered.env_steps),
                                jax.device_get(runner.stopped), model),
@@ -387,6 +373,38 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                    message=message,
                    non_finite_at_step=[position.non_finite.get(r) for r in range(seeds)])
     return RunResult(runner, metrics, points, status, message, position, summary)
+
+
+def _non_finite(config: SACConfig, runner: RunnerState, seeds: int, position: Position,
+                chunk_steps: Tuple[int, int], stop: bool) -> str:
+    """After a chunk from environment step `chunk_steps[0]` to `chunk_steps[1]`: the message
+    that ends the run if a seed's state has become non-finite and `stop`, else "" (recording
+    the chunk's end for each such run in `position.non_finite` when not `stop`). It reads the
+    updates' sticky per-seed codes (`RunnerState.non_finite`), one small fetch a chunk; a
+    compiled check of the whole state here cost a cold `fast` run 0.3 s of compiling (median of
+    7 alternated pairs, 2 CPU cores)."""
+    codes = np.broadcast_to(jax.device_get(runner.non_finite), (seeds,))
+    if not codes.any():
+        return ""
+    if stop:
+        bad = non_finite_name(runner.sac, codes, non_finite_fields(config))
+        return "non-finite {} between environment steps {} and {}".format(bad, *chunk_steps)
+    for run in np.flatnonzero(codes):
+        position.non_finite.setdefault(int(run), chunk_steps[1])
+    return ""
+
+
+def _run_metrics(config: SACConfig, runner: RunnerState, position: Position, points: int
+                 ) -> Dict[str, np.ndarray]:
+    """`RunResult.metrics`: the program's outputs, with `wall_s` (the training seconds at which
+    the host reached each of the `points` points done, NaN after) and `steps_per_s`."""
+    metrics = {k: np.asarray(v) for k, v in jax.device_get(runner.outputs).items()}
+    walls = np.full(config.num_evals, np.nan)
+    for p, step in enumerate(metrics["env_steps"][0, :points]):
+        walls[p] = position.walls.get(int(step), np.nan)
+    metrics["wall_s"] = np.broadcast_to(walls, metrics["eval_return"].shape).copy()
+    metrics["steps_per_s"] = metrics["env_steps"] / metrics["wall_s"]
+    return metrics
 
 
 def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, position: Position,
