@@ -15,9 +15,9 @@
               preset)
     PendulumSwingup  CartpoleSwingup's with learning rates 1e-3, a starting temperature of 0.1
               and 5 episodes per evaluation; no stop (a GPU preset)
-    AcrobotSwingup  PendulumSwingup's with Playground SAC's updates (8 per step, batch 512, tau
-              0.005), observation normalisation, 256 environments, 8,192,000 steps, evaluations
-              stepped alongside training (a GPU preset)
+    AcrobotSwingup  PendulumSwingup's with 512-wide networks, Playground SAC's updates (8 per
+              step, batch 512, tau 0.005), observation normalisation, 256 environments,
+              8,192,000 steps, evaluations stepped alongside training (a GPU preset)
 
 The measurements that chose each tuned preset's numbers, with their result files:
 docs/presets.md.
@@ -71,7 +71,8 @@ PRESETS["PendulumSwingup"] = PRESETS["CartpoleSwingup"].replace(
     env="playground/PendulumSwingup", eval_episodes=5, actor_lr=1e-3, critic_lr=1e-3,
     alpha_init=0.1, stop_when_solved=False, stop_return=None)
 PRESETS["AcrobotSwingup"] = PRESETS["PendulumSwingup"].replace(
-    env="playground/AcrobotSwingup", num_envs=256, updates_per_step=8, batch_size=512,
+    env="playground/AcrobotSwingup", actor_hidden=(512, 512), critic_hidden=(512, 512),
+    num_envs=256, updates_per_step=8, batch_size=512,
     total_steps=8_192_000, buffer_size=8_192_000, eval_every=8_192, tau=0.005,
     learning_starts=8_192, alpha_init=1.0, normalize_observations=True, eval_alongside=True)
 DEFAULT_PRESET = "fast"
