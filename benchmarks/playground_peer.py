@@ -21,7 +21,10 @@
     the next, where 9 of 16 vmapped seeds reached 859.9 within 345,088).
     `--peer-from FILE` takes (a) from an earlier result of the same task instead of running it
     (recorded as `peer_from`: the file's command and date), for when both sides do not fit one
-    job's time limit: run it on a machine of the earlier job's kind.
+    job's time limit: run it on a machine of the earlier job's kind. With `--runs 0` the
+    one-seed side comes from that file too (recorded as `one_seed_from`), measured beside the
+    peer with the same preset, variant, seed, budget and margin, and this job runs only
+    `--seeds` seeds: for when even ours' two sides do not fit one job (AcrobotSwingup's).
 
 Per run: wall time from the trainer's call, the evaluation points (env steps, return, seconds),
 and for ours the seconds and env steps at which every seed's delivered actor had reached the
@@ -93,10 +96,8 @@ def run_peer(task: str, arguments: dict, seed: int) -> dict:
     return dict(wall_s=round(time.time() - t0, 2), points=points, final_return=points[-1][1])
 
 
-def earlier_peer(path: str, task: str):
-    """(peer run, its `sac.train` arguments, its network settings, `peer_from` provenance) from
-    an earlier playground_peer result file of `task`: the job that ran the peer, which is the
-    file's own `peer_from` where that file took its peer from another."""
+def _earlier(path: str, task: str):
+    """(result, provenance) of an earlier playground_peer result file of `task`."""
     try:
         with open(path) as f:
             earlier = json.load(f)
@@ -107,8 +108,30 @@ def earlier_peer(path: str, task: str):
                          f"({type(error).__name__}: {error})") from None
     if run[0] != task:
         raise ValueError(f"--peer-from {path} is a run of {run[0]}, not {task}")
-    return (*run[1:], result.get("peer_from") or dict(
-        file=os.path.basename(path), command=source.get("command"), date=source.get("date")))
+    return result, dict(file=os.path.basename(path), command=source.get("command"),
+                        date=source.get("date"))
+
+
+def earlier_peer(path: str, task: str):
+    """(peer run, its `sac.train` arguments, its network settings, `peer_from` provenance) from
+    an earlier playground_peer result file of `task`: the job that ran the peer, which is the
+    file's own `peer_from` where that file took its peer from another."""
+    result, source = _earlier(path, task)
+    return (result["peer"], result["peer_arguments"], result["peer_network"],
+            result.get("peer_from") or source)
+
+
+def earlier_one_seed(path: str, task: str, expected: dict):
+    """(one-seed run, the single runs' summaries, `one_seed_from` provenance) from an earlier
+    playground_peer result file of `task`, for `--runs 0`: its fields `expected` names (preset,
+    variant, seed, budget, stop margin) must hold the values given."""
+    result, source = _earlier(path, task)
+    differs = [f"{key} {result.get(key)!r}, not {value!r}" for key, value in expected.items()
+               if result.get(key) != value]
+    if differs or "1" not in result.get("ours", {}):
+        raise ValueError(f"--runs 0: --peer-from {path} has no one-seed run of this "
+                         f"configuration ({'; '.join(differs) or 'no one-seed run'})")
+    return result["ours"]["1"], result["single_runs"], result.get("one_seed_from") or source
 
 
 def run_ours(config, seeds: int, seed: int, target: float, fresh_episodes: int,
@@ -168,7 +191,8 @@ def main() -> None:
                              "the same task instead of running it")
     parser.add_argument("--runs", type=int, default=1,
                         help="ours: separate one-seed runs (odd), of seeds --seed onwards; "
-                             "the median run is the one-seed figure")
+                             "the median run is the one-seed figure; 0: take the one-seed "
+                             "side from --peer-from's file too")
     parser.add_argument("--stop-margin", type=float, default=0.0, metavar="POINTS",
                         help="ours: stop a seed at the peer's final return plus this")
     parser.add_argument("--fresh-episodes", type=int, default=100,
@@ -177,8 +201,9 @@ def main() -> None:
     args = parser.parse_args()
     if not args.stop_margin >= 0:
         parser.error(f"--stop-margin must be >= 0, got {args.stop_margin}")
-    if args.runs < 1 or args.runs % 2 == 0:
-        parser.error(f"--runs must be an odd number >= 1, got {args.runs}")
+    if args.runs < 0 or args.runs % 2 == 0 and not (args.runs == 0 and args.peer_from):
+        parser.error(f"--runs must be an odd number >= 1 (or 0 with --peer-from), "
+                     f"got {args.runs}")
     source = provenance()
     preset = args.preset or args.task
     if preset not in PRESETS:
@@ -205,27 +230,39 @@ def main() -> None:
         if not hasattr(jax, "device_put_replicated"):  # Brax 0.14.2 calls it; gone in JAX 0.10
             jax.device_put_replicated = device_put_replicated
         peer = run_peer(args.task, arguments, args.seed)
+    settings = dict(task=args.task, preset=preset, variant=args.variant, quick=args.quick,
+                    seed=args.seed, stop_margin=args.stop_margin, total_steps=config.total_steps)
+    one_seed_from = None
+    if args.runs == 0:  # the one-seed side ran with the peer: --seeds seeds' run is this job's
+        try:
+            one_run, single_runs, one_seed_from = earlier_one_seed(args.peer_from, args.task,
+                                                                   settings)
+        except ValueError as error:
+            parser.error(str(error))
     target = peer["final_return"]
-    # the first run compiles; the others reuse its programs and count its build time
-    singles = [run_ours(config, 1, args.seed, target, args.fresh_episodes, args.stop_margin)]
-    singles += [run_ours(config, 1, args.seed + i, target, args.fresh_episodes,
-                         args.stop_margin, build_s=singles[0]["build_s"])
-                for i in range(1, args.runs)]
-    ours = {1: median_run(singles)}
+    if args.runs:
+        # the first run compiles; the others reuse its programs and count its build time
+        singles = [run_ours(config, 1, args.seed, target, args.fresh_episodes,
+                            args.stop_margin)]
+        singles += [run_ours(config, 1, args.seed + i, target, args.fresh_episodes,
+                             args.stop_margin, build_s=singles[0]["build_s"])
+                    for i in range(1, args.runs)]
+        one_run = median_run(singles)
+        single_runs = [dict(seed=run["seed"], to_peer_final=run["to_peer_final"],
+                            fresh_mean=round(float(np.mean(run["fresh"])), 1),
+                            reach_holds=run["reach_holds"]) for run in singles]
+    ours = {1: one_run}
     if args.seeds > 1:
         ours[args.seeds] = run_ours(config, args.seeds, args.seed, target, args.fresh_episodes,
                                     args.stop_margin)
     one = ours[1]["to_peer_final"]
     many = ours[args.seeds]["to_peer_final"]
     result = dict(
-        task=args.task, preset=preset, variant=args.variant, quick=args.quick, seed=args.seed,
-        stop_margin=args.stop_margin,
+        **settings,
         peer_arguments={k: v for k, v in arguments.items() if k != "network_factory"},
-        peer_network=network,
-        peer=peer, peer_from=peer_from, ours={str(n): run for n, run in ours.items()},
-        single_runs=[dict(seed=run["seed"], to_peer_final=run["to_peer_final"],
-                          fresh_mean=round(float(np.mean(run["fresh"])), 1),
-                          reach_holds=run["reach_holds"]) for run in singles],
+        peer_network=network, peer=peer, peer_from=peer_from,
+        ours={str(n): run for n, run in ours.items()},
+        single_runs=single_runs, one_seed_from=one_seed_from,
         ours_over_peer_time=None if one is None else round(one["seconds"] / peer["wall_s"], 3),
         seeds_over_one_time=(None if None in (one, many)
                              else round(many["seconds"] / one["seconds"], 3)))

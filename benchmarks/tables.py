@@ -585,6 +585,8 @@ def playground_peer() -> str:
                         f"{singles[-1]['seed']}: {each}): {reached(one)}")
         else:
             one_cell = reached(one)
+        if r.get("one_seed_from"):  # `--runs 0`: measured beside the peer, in an earlier job
+            one_cell += f" (an earlier job, {r['one_seed_from']['date'][:16]})"
         peer_steps = r["peer_arguments"]["num_timesteps"]
         earlier = r.get("peer_from")  # the peer ran in an earlier job (`--peer-from`)
         margin = r.get("stop_margin")  # ours stopped that far above it (`--stop-margin`)

@@ -1,5 +1,6 @@
 """benchmarks/playground_peer.py without a GPU: `--peer-from` (the peer's run taken from an
-earlier result file of the same task, with its provenance kept), ours stopping at the peer's
+earlier result file of the same task, with its provenance kept, and with `--runs 0` the one-seed
+side too), ours stopping at the peer's
 return plus `--stop-margin`, the median of `--runs` single-seed runs and the build time they
 share, and a one-line error for every bad flag or file."""
 
@@ -17,12 +18,12 @@ PEER = {"wall_s": 274.18, "points": [[0, 3.1, 28.7], [10_000_640, 65.9, 273.1]],
         "final_return": 65.9}
 
 
-def write_earlier(path, task="AcrobotSwingup"):
+def write_earlier(path, task="AcrobotSwingup", **result):
     path.write_text(json.dumps({
         "provenance": {"command": f"python -m benchmarks.playground_peer --task {task}",
                        "date": "2026-11-27T17:44:50+00:00", "machine": {}},
         "result": {"task": task, "peer": PEER, "peer_arguments": {"num_timesteps": 10_000_000},
-                   "peer_network": {"q_network_layer_norm": True}}}))
+                   "peer_network": {"q_network_layer_norm": True}, **result}}))
     return str(path)
 
 
@@ -126,8 +127,9 @@ def test_the_one_seed_figure_is_the_median_run_an_unreached_run_counting_as_slow
 @pytest.mark.parametrize("flags, error", [
     (["--stop-margin", "-1"], "--stop-margin must be >= 0, got -1.0"),
     (["--stop-margin", "nan"], "--stop-margin must be >= 0, got nan"),
-    (["--runs", "0"], "--runs must be an odd number >= 1, got 0"),
-    (["--runs", "2"], "--runs must be an odd number >= 1, got 2"),
+    (["--runs", "0"], "--runs must be an odd number >= 1 (or 0 with --peer-from), got 0"),
+    (["--runs", "2"], "--runs must be an odd number >= 1 (or 0 with --peer-from), got 2"),
+    (["--runs", "-1"], "--runs must be an odd number >= 1 (or 0 with --peer-from), got -1"),
     (["--variant", '{"num_envz": 128}'],
      """--variant {"num_envz": 128}: SACConfig has no field(s) ['num_envz']"""),
     (["--variant", '{"num_envs": 0}'],
@@ -139,3 +141,55 @@ def test_a_bad_flag_fails_in_one_line_before_anything_runs(monkeypatch, capsys, 
     assert raised.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         f"playground_peer.py: error: {error}")
+
+
+ONE_SEED = {"seeds": 1, "seed": 0, "to_peer_final": {"env_steps": 4_096_000, "seconds": 60.0},
+            "fresh": [70.0], "reach_holds": True}
+SETTINGS = {"preset": "AcrobotSwingup", "variant": {}, "quick": False, "seed": 0,
+            "stop_margin": 2.0, "total_steps": 8_192_000}
+ONE_SEED_FLAGS = ["--task", "AcrobotSwingup", "--runs", "0", "--seeds", "16", "--stop-margin",
+                  "2", "--total-steps", "8192000", "--fresh-episodes", "1"]
+
+
+def test_runs_0_takes_the_one_seed_side_from_the_earlier_file_and_runs_only_the_seeds(
+        tmp_path, monkeypatch, clock):
+    path = write_earlier(tmp_path / "job1.json", ours={"1": ONE_SEED}, single_runs=[
+        {"seed": 0, "to_peer_final": ONE_SEED["to_peer_final"]}], **SETTINGS)
+    calls = []
+    training = fake_training(clock, 20.0, 90.0)
+    monkeypatch.setattr(playground_peer, "run_training",
+                        lambda config, seeds, **kw: calls.append(seeds) or training(
+                            config, seeds, **kw))
+    monkeypatch.setattr(playground_peer, "fresh_returns", lambda *_: [70.0] * 16)
+    monkeypatch.setenv("SAC_JAX_RESULTS_DIR", str(tmp_path / "out"))
+    monkeypatch.setattr(sys, "argv", ["playground_peer.py", *ONE_SEED_FLAGS,
+                                      "--peer-from", path])
+    playground_peer.main()
+    [written] = (tmp_path / "out").iterdir()
+    result = json.loads(written.read_text())["result"]
+    assert calls == [16]  # no one-seed run in this job
+    assert result["ours"]["1"] == ONE_SEED and result["ours"]["16"]["seeds"] == 16
+    assert result["one_seed_from"] == result["peer_from"] == {
+        "file": "job1.json", "command": "python -m benchmarks.playground_peer --task "
+        "AcrobotSwingup", "date": "2026-11-27T17:44:50+00:00"}
+    assert result["ours_over_peer_time"] == round(60.0 / PEER["wall_s"], 3)
+    assert result["seeds_over_one_time"] == 1.5  # 90 s against the earlier job's 60 s
+
+
+@pytest.mark.parametrize("earlier, message", [
+    ({**SETTINGS, "total_steps": 4_096_000}, "(total_steps 4096000, not 8192000)"),
+    ({**SETTINGS, "variant": {"num_envs": 128}, "stop_margin": 0.0},
+     "(variant {'num_envs': 128}, not {}; stop_margin 0.0, not 2.0)"),
+    (SETTINGS, "(no one-seed run)")])
+def test_runs_0_with_a_file_of_another_configuration_fails_in_one_line(
+        tmp_path, monkeypatch, capsys, earlier, message):
+    ours = {} if earlier is SETTINGS else {"ours": {"1": ONE_SEED}}
+    path = write_earlier(tmp_path / "job1.json", **earlier, **ours)
+    monkeypatch.setattr(sys, "argv", ["playground_peer.py", *ONE_SEED_FLAGS,
+                                      "--peer-from", path])
+    with pytest.raises(SystemExit) as raised:
+        playground_peer.main()
+    assert raised.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        f"playground_peer.py: error: --runs 0: --peer-from {path} has no one-seed run of this "
+        f"configuration {message}")
