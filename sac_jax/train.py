@@ -163,6 +163,46 @@ def _non_finite_code(sac: SACState, fields: Tuple[str, ...]) -> jax.Array:
     return code
 
 
+def _unless_stopped(stopped: jax.Array, old, new):
+    """`new`, or `old` where the seed has `stopped` (leaf by leaf; `stop_when_solved`)."""
+    return jax.tree_util.tree_map(lambda o, n: jnp.where(stopped, o, n), old, new)
+
+
+def _learn(agent: Agent, source, watched: Tuple[str, ...], sac: SACState,
+           buffer: ReplayBuffer, key: jax.Array, iteration: jax.Array):
+    """One iteration's `updates_per_step` `sac_update`s, scanned over minibatches all gathered
+    at once. `source` draws the batch indices and, per update, a key (from which `sac_update`
+    draws its noise) or a recorded noise dict (`sac_jax.randomness`). Returns (sac, the
+    `_non_finite_code` of the first update whose result held a NaN or an infinity, else 0,
+    {name: mean over the updates} for `METRIC_NAMES`, float32 whatever the parameters' dtype
+    (float64 in the x64 equivalence test), NaN for a metric the variant has not)."""
+    index, randomness = source.learning(key, buffer.size, iteration)
+    with jax.named_scope("replay_sample"):
+        batches = rb.gather(buffer, index)
+
+    def update(carry, xs):
+        sac, code = carry
+        sac, metrics = sac_update(agent, sac, *xs)
+        # a few reductions per update: ~0.1% of it on 2 CPU cores; on an H100 the two largest
+        # took 6.6 % of PendulumSwingup's update kernel time with 1 seed, 5.5 % with 16
+        # (`profile_chunk-PendulumSwingup-h100.json`, its `reduce_and` fusions)
+        code = jnp.where(code == 0, _non_finite_code(sac, watched), code)
+        return (sac, code), metrics
+
+    with jax.named_scope("sac_update"):
+        (sac, code), metrics = jax.lax.scan(update, (sac, jnp.int32(0)), (batches, randomness))
+    return sac, code, {name: jnp.nanmean(metrics[name]).astype(jnp.float32) if name in metrics
+                       else jnp.float32(jnp.nan) for name in METRIC_NAMES}
+
+
+def _accumulate(sums: Dict[str, Tuple[jax.Array, jax.Array]], metrics: Dict[str, jax.Array],
+                counts: Dict[str, jax.Array]):
+    """The period's (sum, count) pairs with this iteration's finite `metrics` added, each
+    counting as `counts[name]`."""
+    return {name: (total + jnp.where(jnp.isfinite(metrics[name]), metrics[name], 0.0),
+                   count + counts[name]) for name, (total, count) in sums.items()}
+
+
 def agent_for(config: SACConfig) -> Tuple[Agent, object]:
     """The agent sized for `config.env`, and that environment."""
     env = config.make_env()
@@ -196,29 +236,6 @@ def make_train_parts(config: SACConfig,
 
     # Every function below takes the run's agent: `agent` itself, or with the runner's traced
     # hyperparameters (`Agent.with_hyperparams`).
-    def learn(agent: Agent, sac: SACState, buffer: ReplayBuffer, key: jax.Array,
-              iteration: jax.Array):
-        # All minibatches of the iteration are gathered at once, then scanned over.
-        # randomness: U keys (sac_update draws its noise from each) or U recorded noise dicts
-        index, randomness = source.learning(key, buffer.size, iteration)
-        with jax.named_scope("replay_sample"):
-            batches = rb.gather(buffer, index)
-        def update(carry, xs):
-            sac, code = carry
-            sac, metrics = sac_update(agent, sac, *xs)
-            # a few reductions per update: ~0.1% of it on 2 CPU cores; on an H100 the two
-            # largest took 6.6 % of PendulumSwingup's update kernel time with 1 seed, 5.5 % with
-            # 16 (`profile_chunk-PendulumSwingup-h100.json`, its `reduce_and` fusions)
-            code = jnp.where(code == 0, _non_finite_code(sac, watched), code)
-            return (sac, code), metrics
-
-        with jax.named_scope("sac_update"):
-            (sac, code), metrics = jax.lax.scan(update, (sac, jnp.int32(0)),
-                                                (batches, randomness))
-        # float32 whatever the parameters' dtype (float64 in the x64 equivalence test)
-        return sac, code, {name: jnp.nanmean(metrics[name]).astype(nan.dtype) if name in metrics
-                           else nan for name in METRIC_NAMES}
-
     def evaluate_period(agent: Agent, runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
         key, k_eval = jax.random.split(runner.key)
@@ -231,8 +248,7 @@ def make_train_parts(config: SACConfig,
             out["eval_return"], out["confirm_return"], out["kept_return"] = returns
         stopped = runner.stopped
         if config.stop_when_solved:
-            delivered = jax.tree_util.tree_map(
-                lambda old, new: jnp.where(stopped, old, new), runner.delivered, delivered)
+            delivered = _unless_stopped(stopped, runner.delivered, delivered)
             stopped = stopped | ((delivered.score >= config.stop_at)
                                  & (delivered.count >= config.stop_measurements))
         out["delivered_return"], out["stopped"] = delivered.score, stopped.astype(jnp.float32)
@@ -263,13 +279,13 @@ def make_train_parts(config: SACConfig,
             sac = sac.replace(actor_params=observation_norm.observe(
                 sac.actor_params, obs, config.data_parallel_axis))
         sac, code, metrics = jax.lax.cond(
-            learning, lambda sac: learn(agent, sac, buffer, k_learn, runner.iteration),
+            learning,
+            lambda sac: _learn(agent, source, watched, sac, buffer, k_learn, runner.iteration),
             lambda sac: (sac, jnp.int32(0), {name: nan for name in METRIC_NAMES}), sac)
         if config.stop_when_solved:  # a stopped seed keeps its learner; the update count is shared
-            keep = lambda old, new: jnp.where(runner.stopped, old, new)
-            sac = jax.tree_util.tree_map(keep, runner.sac, sac).replace(step=sac.step)
-            metrics = {name: keep(nan, m) for name, m in metrics.items()}
-            code = keep(jnp.int32(0), code)
+            sac = _unless_stopped(runner.stopped, runner.sac, sac).replace(step=sac.step)
+            metrics, code = _unless_stopped(
+                runner.stopped, ({name: nan for name in metrics}, jnp.int32(0)), (metrics, code))
         non_finite = jnp.where(runner.non_finite == 0, code, runner.non_finite)
         pending = runner.pending
         if points.depth:
@@ -278,9 +294,7 @@ def make_train_parts(config: SACConfig,
         metrics["train_return"] = jnp.sum(jnp.where(step.done, step.episode_return, 0.0))
         counts = {name: jnp.isfinite(m).astype(jnp.float32) for name, m in metrics.items()}
         counts["train_return"] = jnp.sum(step.done).astype(jnp.float32)
-        sums = {name: (total + jnp.where(jnp.isfinite(metrics[name]), metrics[name], 0.0),
-                       count + counts[name])
-                for name, (total, count) in runner.sums.items()}
+        sums = _accumulate(runner.sums, metrics, counts)
         return runner.replace(sac=sac, env=env_state, buffer=buffer, key=key, sums=sums,
                               iteration=runner.iteration + 1, non_finite=non_finite,
                               pending=pending), None
