@@ -37,10 +37,6 @@ BLOCK = re.compile(r"(<!-- generated: (\S+) -->\n)(.*?)(<!-- end generated -->)"
 
 PLAYGROUND_FAMILY = ("CartpoleBalance", "CartpoleSwingup", "PendulumSwingup", "AcrobotSwingup")
 GPUS = ("h100", "h200")  # the kinds (benchmarks/provenance.py's machine_kind) of one GPU
-EARLIER_PRESET = {
-    "playground_peer-AcrobotSwingup-h100": "the preset before its 512-wide networks"}
-"""Results files measured with a preset since changed: {file: which preset it was}, said beside
-their figures until they are measured again."""
 
 
 def _load(name: str) -> dict:
@@ -593,8 +589,6 @@ def playground_peer() -> str:
         variant = r.get("variant")  # the preset's fields ours replaced (`--variant`)
         task = r["task"] + (" (" + ", ".join(f"{k} {v}" for k, v in variant.items()) + ")"
                             if variant else "")
-        if name in EARLIER_PRESET:
-            task += f" ({EARLIER_PRESET[name]})"
         return [[task, _machine(data), f"{r['peer']['final_return']:.1f}"
                  + (f" (ours stopping at +{margin:g})" if margin else ""),
                  f"{r['peer']['wall_s']:.0f} s, {peer_steps:,} steps"
@@ -616,7 +610,6 @@ def _target_playground_peer():
         return None
     results = [_load(n)["result"] for n in names]
     complete = len(names) == len(PLAYGROUND_FAMILY)
-    earlier = {r["task"]: EARLIER_PRESET.get(n) for n, r in zip(names, results)}
 
     def figure(key, limit):
         # a reach counts only where the delivered actors scored the peer's return on fresh
@@ -625,15 +618,12 @@ def _target_playground_peer():
                 else list(r["ours"].values()) for r in results}
         holds = {task: [run.get("reach_holds", "unscored") for run in rs]
                  for task, rs in runs.items()}
-        why = {task: None if all(x is True for x in h) else "not held on fresh episodes"
-               if False in h else "not scored on fresh episodes" for task, h in holds.items()}
+        why = {task: "" if all(x is True for x in h) else " (not held on fresh episodes)"
+               if False in h else " (not scored on fresh episodes)" for task, h in holds.items()}
         values = {r["task"]: r[key] for r in results}
         met = all(v is not None and v <= limit and not why[task] for task, v in values.items())
-        notes = {task: "; ".join(n for n in (None if v is None else why[task], earlier[task]) if n)
-                 for task, v in values.items()}
         return (", ".join(f"{task} " + ("not reached" if v is None else f"{v:.2f}x")
-                          + (f" ({notes[task]})" if notes[task] else "")
-                          for task, v in values.items())
+                          + ("" if v is None else why[task]) for task, v in values.items())
                 + ("" if complete else f" ({len(names)} of {len(PLAYGROUND_FAMILY)} tasks)"),
                 met if complete or not met else None)
 
