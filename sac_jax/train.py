@@ -172,10 +172,11 @@ def _learn(agent: Agent, source, watched: Tuple[str, ...], sac: SACState,
            buffer: ReplayBuffer, key: jax.Array, iteration: jax.Array):
     """One iteration's `updates_per_step` `sac_update`s, scanned over minibatches all gathered
     at once. `source` draws the batch indices and, per update, a key (from which `sac_update`
-    draws its noise) or a recorded noise dict (`sac_jax.randomness`). Returns (sac, the
-    `_non_finite_code` of the first update whose result held a NaN or an infinity, else 0,
-    {name: mean over the updates} for `METRIC_NAMES`, float32 whatever the parameters' dtype
-    (float64 in the x64 equivalence test), NaN for a metric the variant has not)."""
+    draws its noise) or a recorded noise dict (`sac_jax.randomness`). Returns (sac, code,
+    metrics): `code` is the `_non_finite_code` of the first update whose result held a NaN or
+    an infinity (0 if none); `metrics` {name: mean over the updates} for `METRIC_NAMES`,
+    float32 whatever the parameters' dtype (float64 in the x64 equivalence test), NaN for a
+    metric the variant lacks."""
     index, randomness = source.learning(key, buffer.size, iteration)
     with jax.named_scope("replay_sample"):
         batches = rb.gather(buffer, index)
