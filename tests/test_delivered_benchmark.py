@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 import sys
 
+import pytest
+
 from benchmarks import delivered
 
 
@@ -41,3 +43,44 @@ def test_cold_runs_each_start_from_an_empty_cache_and_are_reported_by_their_medi
     cold_calls = [c for c in calls if is_cold(c[0])]
     assert len(cold_calls) == 3 and len({c[1] for c in cold_calls}) == 3
     assert all(c[1] is None for c in calls if not is_cold(c[0]))  # warm runs: the usual cache
+
+
+def test_another_preset_trains_in_every_run_and_is_judged_in_its_own_task(monkeypatch, tmp_path):
+    """--preset CartpoleBalance: every run passes the preset; a task with no Gymnasium twin is
+    judged over fresh episodes of the task itself, against its solved return (900)."""
+    calls, written = [], {}
+
+    def train(out, *flags, cache_dir=None, env=None):
+        calls.append(flags)
+        return {"compile_s": 20.0, "solved_process_s": [30.0], "solved_wall_s": [8.0],
+                "solved_at_step": [9216], "delivered_return": [999.0], "process_wall_s": 33.0}
+
+    fresh = iter([950.0, 850.0, 990.0])
+    monkeypatch.setattr(delivered, "train", train)
+    monkeypatch.setattr(delivered, "gymnasium_scores", lambda *args: 1 / 0)
+    monkeypatch.setattr(delivered, "our_scores", lambda run, seeds, episodes: [next(fresh)])
+    monkeypatch.setattr(delivered, "write_result",
+                        lambda name, result, provenance: written.update({name: result}))
+    monkeypatch.setattr(delivered, "provenance", lambda: {})
+    monkeypatch.setattr(delivered, "machine_kind", lambda: "cpu")
+    monkeypatch.setattr(sys, "argv", ["delivered", "--preset", "CartpoleBalance", "--seeds", "0",
+                                      "1", "--many", "0", "--cold", "1"])
+    delivered.main()
+
+    result = written["delivered-CartpoleBalance"]
+    assert all(flags[:2] == ("--preset", "CartpoleBalance") for flags in calls) and len(calls) == 4
+    assert result["judged_in"] == "ours" and result["solved_return"] == 900.0
+    assert [r["fresh_return"] for r in result["runs"]] == [950.0, 850.0]
+    assert result["warm"]["ours_at_least_900"] == 1
+    assert result["cold"]["fresh_return"] == 990.0
+
+
+def test_judging_a_task_without_a_gymnasium_twin_in_gymnasium_fails_in_one_line(
+        monkeypatch, capsys):
+    monkeypatch.setattr(sys, "argv", ["delivered", "--preset", "CartpoleBalance",
+                                      "--judge", "gymnasium"])
+    with pytest.raises(SystemExit) as exit_:
+        delivered.main()
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "delivered: error: --judge gymnasium: playground/CartpoleBalance has no Gymnasium twin")
