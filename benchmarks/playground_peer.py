@@ -55,6 +55,7 @@ import numpy as np
 
 from benchmarks.brax_peer import device_put_replicated
 from benchmarks.fresh_episodes import fresh_returns
+from benchmarks.points import recorder
 from benchmarks.provenance import provenance, result_name, write_result
 from envs import playground
 from sac_jax.presets import PRESETS
@@ -143,13 +144,9 @@ def run_ours(config, seeds: int, seed: int, target: float, fresh_episodes: int,
     (`own_build_s`), for a run that reuses an earlier run's compiled programs: its seconds
     are then those of a run that compiled as that one did (`wall_s` stays as measured)."""
     config = config.replace(stop_when_solved=True, stop_return=target + margin)
-    points, built = [], []
+    built = []
+    points, on_point = recorder(f"ours, {seeds} seed(s)")
     t0 = time.time()
-
-    def on_point(step, means, _returns, _elapsed):
-        points.append((int(step), float(means["delivered_return"]), float(means["stopped"]),
-                       time.time() - t0))
-
     result = run_training(config, seeds=seeds, seed=seed, on_ready=built.append,
                           on_point=on_point)
     wall_s = round(time.time() - t0, 2)

@@ -28,23 +28,19 @@ import time
 import numpy as np
 
 from benchmarks.fresh_episodes import fresh_returns
+from benchmarks.points import recorder
 from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax.presets import PRESETS
 from sac_jax.run import run_training
 
 
-def run_variant(config, seeds: int, seed: int, fresh_episodes: int) -> dict:
-    points, reached = [], []
+def run_variant(config, seeds: int, seed: int, fresh_episodes: int, label: str = "") -> dict:
+    points, on_point = recorder(label)
     t0 = time.time()
-
-    def on_point(step, means, _returns, _elapsed):
-        points.append((int(step), round(float(means["delivered_return"]), 1),
-                       round(time.time() - t0, 1)))
-        if means["stopped"] == 1.0 and not reached:  # every seed stopped at the target
-            reached.append(dict(env_steps=points[-1][0], seconds=points[-1][2]))
-
     result = run_training(config, seeds=seeds, seed=seed, on_point=on_point)
     wall_s = round(time.time() - t0, 1)
+    reached = [dict(env_steps=step, seconds=round(seconds, 1))
+               for step, _, stopped, seconds in points if stopped == 1.0][:1]
     delivered = np.asarray(result.summary["delivered_return"], np.float64)
     fresh = fresh_returns(config, result.state.delivered.actor_params, fresh_episodes)
     return dict(wall_s=wall_s, env_steps=points[-1][0],
@@ -53,7 +49,9 @@ def run_variant(config, seeds: int, seed: int, fresh_episodes: int) -> dict:
                 delivered=[round(float(d), 1) for d in delivered],
                 delivered_mean=round(float(delivered.mean()), 1),
                 delivered_min=round(float(delivered.min()), 1),
-                all_reached=reached[0] if reached else None, curve=points)
+                all_reached=reached[0] if reached else None,
+                curve=[(step, round(kept, 1), round(seconds, 1))
+                       for step, kept, _, seconds in points])
 
 
 def main() -> None:
@@ -76,7 +74,7 @@ def main() -> None:
     rows = []
     for variant, config in zip(args.variant, configs):
         row = dict(variant=variant, **run_variant(config, args.seeds, args.seed,
-                                                  args.fresh_episodes))
+                                                  args.fresh_episodes, json.dumps(variant)))
         rows.append(row)
         print(f"{json.dumps(variant)}: delivered mean {row['delivered_mean']}, min "
               f"{row['delivered_min']} (fresh episodes: mean {row['fresh_mean']}) after "

@@ -12,7 +12,7 @@ import types
 
 import pytest
 
-from benchmarks import playground_peer
+from benchmarks import playground_peer, points
 
 PEER = {"wall_s": 274.18, "points": [[0, 3.1, 28.7], [10_000_640, 65.9, 273.1]],
         "final_return": 65.9}
@@ -89,7 +89,9 @@ def fake_training(seen, build_s, reached_s):
 @pytest.fixture
 def clock(monkeypatch):
     seen = {"now": 0.0}
-    monkeypatch.setattr(playground_peer, "time", types.SimpleNamespace(time=lambda: seen["now"]))
+    fake = types.SimpleNamespace(time=lambda: seen["now"])
+    monkeypatch.setattr(playground_peer, "time", fake)
+    monkeypatch.setattr(points, "time", fake)
     return seen
 
 
