@@ -8,6 +8,8 @@ both the observation to act on next and the true final observation of the ended 
 
 from __future__ import annotations
 
+from typing import Optional
+
 import jax
 import jax.numpy as jnp
 from flax import struct
@@ -65,13 +67,26 @@ def where_rows(mask: jax.Array, new, old):
 
 
 class VectorEnv:
-    """n copies of ``env`` stepped in lock-step, with auto-reset (see the module docstring)."""
+    """n copies of ``env`` stepped in lock-step, with auto-reset (see the module docstring).
 
-    def __init__(self, env: Env, num_envs: int):
+    ``reset_axis``: the name of a ``vmap`` axis that ``step`` runs under (e.g. the seeds of
+    ``jax.vmap(train, axis_name="seeds")``), or None. Fresh states are computed only on steps
+    where an episode ended, in a ``lax.cond``; under ``vmap`` a predicate that differs along
+    the mapped axis makes the ``cond`` compute both branches, so every step would reset every
+    copy. With ``reset_axis`` the predicate is whether an episode ended anywhere along that
+    axis, the same for all, and the ``cond`` stays a branch. It matters where a reset costs
+    many steps: Playground's CheetahRun settles each fresh state over 200 physics steps, and 2
+    seeds vmapped on one device trained 3,072 steps in 13.3 s with it, 89.2 s without, where one
+    seed took 8.3 s (2 CPU cores, `--preset PendulumSwingup --env playground/CheetahRun
+    --num-envs 32 --total-steps 4096 --eval-episodes 1 --confirm-episodes 1`, ad hoc).
+    """
+
+    def __init__(self, env: Env, num_envs: int, reset_axis: Optional[str] = None):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
         self._env = env
         self._num_envs = num_envs
+        self._reset_axis = reset_axis
 
     @property
     def env(self) -> Env:
@@ -110,8 +125,11 @@ class VectorEnv:
         episode_length = vstate.episode_length + 1
         key, reset_key = jax.random.split(vstate.key)
 
+        ended = jnp.any(done)
+        if self._reset_axis is not None:  # one predicate along the axis: `cond` stays a branch
+            ended = jax.lax.psum(ended.astype(jnp.int32), self._reset_axis) > 0
         env_state = jax.lax.cond(
-            jnp.any(done), lambda state: where_rows(done, self._reset_all(reset_key), state),
+            ended, lambda state: where_rows(done, self._reset_all(reset_key), state),
             lambda state: state, stepped)
         next_vstate = VectorState(
             env_state=env_state,

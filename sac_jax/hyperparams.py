@@ -5,7 +5,7 @@ instead, they are inputs of that program, so one program trains any of their val
 `jax.vmap` over them trains many settings at once (`scripts/sweep.py`):
 
     config = sac_jax.PRESETS["fast"]
-    train = jax.jit(jax.vmap(sac_jax.make_train(config)))
+    train = jax.jit(jax.vmap(sac_jax.make_train(config, seed_axis="runs"), axis_name="runs"))
     settings = sac_jax.hyperparams.stack(
         [config.replace(actor_lr=lr, critic_lr=lr) for lr in (1e-3, 3e-3)])
     keys = jax.random.split(jax.random.key(0), 2)

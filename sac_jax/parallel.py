@@ -73,11 +73,12 @@ def over_seeds(fn: Callable, mesh: Mesh, in_axes=0, out_axes=0, donate: bool = F
     (single) argument's buffers.
 
     The split is stated as `NamedSharding`s of the inputs and outputs and left to XLA's
-    partitioner (seeds never communicate, so it inserts no collective). `jax.shard_map` would
+    partitioner (the seeds share one thing: whether any seed's episode ended, a sum over the
+    axis SEEDS that `sac_jax.train.make_train`'s `seed_axis` asks for). `jax.shard_map` would
     say the same thing, but XLA's GPU compiler of jax 0.11.2 crashes on the shard_mapped
     training program (BENCHMARKS.md), while this form compiles and runs on 2 GPUs."""
-    return jax.jit(jax.vmap(fn, in_axes, out_axes), donate_argnums=(0,) if donate else (),
-                   **_placement(in_axes, out_axes, mesh))
+    return jax.jit(jax.vmap(fn, in_axes, out_axes, axis_name=SEEDS),
+                   donate_argnums=(0,) if donate else (), **_placement(in_axes, out_axes, mesh))
 
 
 def _placement(in_axes, out_axes, mesh: Mesh) -> dict:
@@ -86,13 +87,13 @@ def _placement(in_axes, out_axes, mesh: Mesh) -> dict:
 
 
 def over_seed_axis(fn: Callable, seeds: int, in_axes=0, out_axes=0) -> Callable:
-    """`jax.vmap(fn, in_axes, out_axes)` over `seeds` seeds. For one seed, `fn` itself between
-    taking seed 0 of the mapped (axis 0) parts of the arguments and putting the seed axis back
-    on the results: the same values up to float32 rounding (a vmap of size 1 batches every
-    operation, and XLA rounds a batched product differently), and half the tracing of the
-    `fast` chunk on a CPU (5 s instead of 10 s; BENCHMARKS.md)."""
+    """`jax.vmap(fn, in_axes, out_axes)` over `seeds` seeds (axis name SEEDS). For one seed, `fn`
+    itself between taking seed 0 of the mapped (axis 0) parts of the arguments and putting the
+    seed axis back on the results: the same values up to float32 rounding (a vmap of size 1
+    batches every operation, and XLA rounds a batched product differently), and half the
+    tracing of the `fast` chunk on a CPU (5 s instead of 10 s; BENCHMARKS.md)."""
     if seeds != 1:
-        return jax.vmap(fn, in_axes, out_axes)
+        return jax.vmap(fn, in_axes, out_axes, axis_name=SEEDS)
 
     def mapped(f, axes, tree):
         return jax.tree_util.tree_map(
@@ -121,8 +122,8 @@ def seed_mapping(fn: Callable, seeds: int, in_axes=0, out_axes=0) -> Tuple[Calla
     devices = seed_devices(seeds)
     if len(devices) == 1:
         return over_seed_axis(fn, seeds, in_axes, out_axes), {}
-    return jax.vmap(fn, in_axes, out_axes), _placement(in_axes, out_axes,
-                                                       make_mesh(SEEDS, devices))
+    return (jax.vmap(fn, in_axes, out_axes, axis_name=SEEDS),
+            _placement(in_axes, out_axes, make_mesh(SEEDS, devices)))
 
 
 def seeds_program(fn: Callable, seeds: int, in_axes=0, out_axes=0, donate: bool = False

@@ -89,3 +89,31 @@ def test_episode_statistics(run):
         # InvertedPendulum-v5 pays 1 per step and 0 on the terminating step
         np.testing.assert_array_equal(s.episode_return[t][d], length[d] - 1)
         ret[d], length[d] = 0, 0
+
+
+
+
+
+def test_under_vmap_a_reset_axis_keeps_fresh_states_to_the_steps_where_an_episode_ended():
+    """2 seeds of 4 InvertedPendulum-v5 copies vmapped (axis "seeds"), each seed pushing with
+    its own constant actions, so their episodes end at different steps. Without `reset_axis`
+    the reset `cond`'s predicate differs along the axis, and `vmap` turns it into computing
+    fresh states at every step and selecting; with it the program keeps the `cond`. The
+    states and steps are the same either way."""
+    actions = jnp.stack([jnp.full((40, 4, 1), 3.0), jnp.full((40, 4, 1), -0.5)])
+    keys = jax.random.split(jax.random.key(0), 2)
+
+    def rollout(reset_axis):
+        vec = envs.VectorEnv(envs.make("InvertedPendulum-v5"), 4, reset_axis=reset_axis)
+        seed = lambda key, acts: jax.lax.scan(vec.step, vec.reset(key), acts)
+        run = jax.vmap(seed, axis_name="seeds")
+        return jax.jit(run)(keys, actions), str(jax.make_jaxpr(run)(keys, actions))
+
+    (final, steps), program = rollout("seeds")
+    (final_each, steps_each), program_each = rollout(None)
+    ends = np.asarray(steps.done).any(axis=2)  # (seeds, steps): where each seed's episodes end
+    assert ends.any(axis=1).all() and (ends[0] != ends[1]).any()
+    assert " cond[" in program and " cond[" not in program_each
+    same = jax.tree_util.tree_map(lambda a, b: np.array_equal(a, b),
+                                  (final.env_state, steps), (final_each.env_state, steps_each))
+    assert all(jax.tree_util.tree_leaves(same))
