@@ -15,7 +15,9 @@ as the task's array.
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import warnings
 
 from envs import _lean_import, task_adapter
 from envs.task_adapter import TaskAdapter
@@ -64,7 +66,24 @@ def _load(task: str, impl: str):
     except ImportError:
         raise ValueError(f"environment {PREFIX + task!r} needs MuJoCo Playground: "
                          f"{INSTALL}") from None
-    return registry.load(task, config_overrides={"impl": impl})
+    with _mujoco_warnings_as_python():
+        return registry.load(task, config_overrides={"impl": impl})
+
+
+@contextlib.contextmanager
+def _mujoco_warnings_as_python():
+    """MuJoCo's warnings (e.g. CheetahRun's model uses the deprecated `settotalmass`) as Python
+    warnings, which a user can filter: MuJoCo's own handler prints them to stdout and appends
+    them to MUJOCO_LOG.TXT in the working directory."""
+    import mujoco
+
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: warnings.warn(f"MuJoCo: {message}",
+                                                              stacklevel=2))
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 class PlaygroundTask(TaskAdapter):

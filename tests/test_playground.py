@@ -4,6 +4,7 @@ that keeps the true final observation, `done` a termination, actions clipped to 
 bounds), the one-line errors, and a short CPU run on CartpoleBalance whose delivered policy is
 scored in the Playground task itself."""
 
+import os
 import subprocess
 import sys
 
@@ -109,6 +110,20 @@ def test_building_an_mjx_task_prints_nothing_and_loads_no_warp_or_torch():
     proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=300, check=True)
     assert proc.stdout == "5 False False\n"
+
+
+def test_mujoco_warnings_while_a_task_is_built_are_python_warnings_and_leave_no_log(tmp_path):
+    """CheetahRun's model uses a deprecated MuJoCo attribute: MuJoCo's own handler would print
+    the warning to stdout and append it to MUJOCO_LOG.TXT in the working directory. It comes
+    as a Python warning instead, and MuJoCo's handler is restored afterwards."""
+    code = ("import mujoco, envs; envs.make('playground/CheetahRun'); "
+            "print(mujoco.get_mju_user_warning())")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300, check=True,
+                          env=dict(os.environ, PYTHONPATH=ROOT))
+    assert proc.stdout == "None\n"
+    assert "UserWarning: MuJoCo: compiler attribute 'settotalmass' is deprecated" in proc.stderr
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("before, message", [
