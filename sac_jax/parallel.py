@@ -195,7 +195,8 @@ def make_data_parallel_parts(config: SACConfig, mesh: Mesh) -> TrainParts:
     its `env`, `buffer.data`, `key`, `sums` and `outputs` have a leading axis D
     (`data_parallel_metrics` turns the outputs into the run's metrics)."""
     axis = _axis(mesh)
-    parts = make_train_parts(local_config(config, mesh.size, axis))
+    # environments reset on the iterations where an episode ended on any device (`VectorEnv`)
+    parts = make_train_parts(local_config(config, mesh.size, axis), seed_axis=axis)
 
     def init(key: jax.Array, hyperparams=None) -> RunnerState:
         shared = parts.init(key, hyperparams)
