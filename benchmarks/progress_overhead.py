@@ -60,7 +60,8 @@ def main():
     config = sac_jax.PRESETS[args.preset]
     keys = jax.random.split(jax.random.key(0), args.seeds)
     if not args.no_single_scan:
-        whole = jax.jit(jax.vmap(sac_jax.make_train(config))).lower(keys).compile()
+        train = sac_jax.make_train(config, seed_axis="seeds")  # resets as the chunked run's
+        whole = jax.jit(jax.vmap(train, axis_name="seeds")).lower(keys).compile()
         jax.block_until_ready(whole(keys))  # warm-up
     run_training(config, seeds=args.seeds)  # compiles and warms up the chunk
     times = {"chunks": [], "followed": []}
