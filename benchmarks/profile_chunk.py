@@ -35,7 +35,7 @@ import jax
 from jax.profiler import ProfileData
 
 from benchmarks.provenance import provenance, result_name, write_result
-from sac_jax.parallel import seeds_program
+from sac_jax.parallel import SEEDS, seeds_program
 from sac_jax.presets import PRESETS
 from sac_jax.train import SEED_AXES, make_train_parts
 
@@ -88,8 +88,9 @@ def kernel_time_by_part(trace_dir: str, names: dict, top: int) -> tuple:
 
 
 def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
-    config = dataclasses.replace(PRESETS[preset], hidden_dtype=hidden_dtype)
-    parts = make_train_parts(config)  # as sac_jax.run builds it
+    config = dataclasses.replace(PRESETS[preset], hidden_dtype=hidden_dtype or
+                                 PRESETS[preset].hidden_dtype)
+    parts = make_train_parts(config, seed_axis=SEEDS if seeds > 1 else None)  # as sac_jax.run
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
     chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
     state = init(jax.random.split(jax.random.key(0), seeds))
@@ -108,7 +109,7 @@ def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -
             int(state.iteration)
         by_part, tops = kernel_time_by_part(trace_dir, op_names(compiled.as_text()), top)
     returns = jax.device_get(state.outputs["eval_return"])
-    return {"preset": preset, "seeds": seeds, "hidden_dtype": hidden_dtype,
+    return {"preset": preset, "seeds": seeds, "hidden_dtype": config.hidden_dtype,
             "device": jax.devices()[0].device_kind, "compile_s": round(compile_s, 1),
             "chunk_s": walls,
             "profiled_chunk_max_eval_return": float(returns[:, chunks - 1].max()),
@@ -120,7 +121,8 @@ def main(argv=None) -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--preset", choices=sorted(PRESETS), default="fast")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 256])
-    parser.add_argument("--hidden-dtype", choices=["float32", "bfloat16"], default="bfloat16")
+    parser.add_argument("--hidden-dtype", choices=["float32", "bfloat16"], default=None,
+                        help="the hidden layers' dtype (default: the preset's)")
     parser.add_argument("--chunks", type=int, default=4,
                         help="chunks run before the profiled one (the first is the prefill)")
     parser.add_argument("--top", type=int, default=0, help="kernels listed per part")
