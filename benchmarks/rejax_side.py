@@ -36,8 +36,10 @@ CONFIG = dict(env="Pendulum-v1", agent_kwargs={"activation": "swish"}, num_envs=
 def timed(train, seeds: int, repeats: int):
     """(compile seconds, [run seconds] of `repeats` calls, the last call's output) of
     `jax.jit(train)` on key 0, vmapped over `seeds` keys split from it where seeds > 1; shared
-    with benchmarks/rejax_peer.py, so both trainers are timed alike."""
-    train = train if seeds == 1 else jax.vmap(train)
+    with benchmarks/rejax_peer.py, so both trainers are timed alike. The axis is named as
+    sac_jax.parallel.SEEDS (not imported: rejax's environment has no sac_jax), for our
+    `make_train(config, seed_axis="seeds")`."""
+    train = train if seeds == 1 else jax.vmap(train, axis_name="seeds")
     keys = jax.random.key(0) if seeds == 1 else jax.random.split(jax.random.key(0), seeds)
     start = time.perf_counter()
     compiled = jax.jit(train).lower(keys).compile()
