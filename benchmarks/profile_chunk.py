@@ -35,7 +35,7 @@ import jax
 from jax.profiler import ProfileData
 
 from benchmarks.provenance import provenance, result_name, write_result
-from sac_jax.parallel import SEEDS, seeds_program
+from sac_jax.parallel import seed_axis, seeds_program
 from sac_jax.presets import PRESETS
 from sac_jax.train import SEED_AXES, make_train_parts
 
@@ -90,7 +90,7 @@ def kernel_time_by_part(trace_dir: str, names: dict, top: int) -> tuple:
 def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
     config = dataclasses.replace(PRESETS[preset], hidden_dtype=hidden_dtype or
                                  PRESETS[preset].hidden_dtype)
-    parts = make_train_parts(config, seed_axis=SEEDS if seeds > 1 else None)  # as sac_jax.run
+    parts = make_train_parts(config, seed_axis=seed_axis(seeds))  # as sac_jax.run builds it
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
     chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
     state = init(jax.random.split(jax.random.key(0), seeds))

@@ -57,7 +57,7 @@ import numpy as np
 
 from benchmarks.provenance import provenance, result_name, write_result
 from benchmarks.rejax_side import timed
-from sac_jax.parallel import SEEDS
+from sac_jax.parallel import seed_axis
 from sac_jax.presets import PRESETS
 from sac_jax.run import Chunk, compiled_program
 from sac_jax.train import make_train, make_train_parts
@@ -74,7 +74,7 @@ CONFIG = PRESETS["fast"].replace(
 
 
 def program(seeds: int, repeats: int) -> dict:
-    train = make_train(CONFIG, seed_axis=SEEDS if seeds > 1 else None)  # as sac_jax.run's
+    train = make_train(CONFIG, seed_axis=seed_axis(seeds))  # as sac_jax.run's
     compile_s, times, (_, outputs) = timed(train, seeds, repeats)
     delivered = np.asarray(outputs["delivered_return"]).reshape(seeds, -1)
     return dict(compile_s=round(compile_s, 3), run_s=round(statistics.median(times), 3),

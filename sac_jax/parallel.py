@@ -108,6 +108,13 @@ def over_seed_axis(fn: Callable, seeds: int, in_axes=0, out_axes=0) -> Callable:
     return one_seed
 
 
+def seed_axis(seeds: int) -> Optional[str]:
+    """The `seed_axis` of `sac_jax.train.make_train(config, seed_axis=...)` for a program that
+    `seeds_program` maps over `seeds` seeds: SEEDS, or None for one seed, which
+    `over_seed_axis` runs unmapped."""
+    return SEEDS if seeds > 1 else None
+
+
 def seed_devices(seeds: int, devices: Optional[Sequence[jax.Device]] = None) -> list:
     """The devices (default: the local ones) that `seeds` seeds are split over: the first k,
     k the largest number of them that divides `seeds` (one device for one seed)."""

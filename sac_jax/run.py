@@ -31,7 +31,7 @@ import envs
 from sac_jax import hyperparams, memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
-from sac_jax.parallel import SEEDS, seed_devices, seed_mapping, seeds_program
+from sac_jax.parallel import seed_axis, seed_devices, seed_mapping, seeds_program
 from sac_jax.position import Position
 from sac_jax.program_cache import cached_lower
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts, non_finite_fields
@@ -194,7 +194,7 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     # XLA compiles without Python's lock: each program compiles while the next is traced
     with concurrent.futures.ThreadPoolExecutor(4) as pool:
         with _collector_paused():
-            parts = make_train_parts(config, seed_axis=SEEDS if seeds > 1 else None)
+            parts = make_train_parts(config, seed_axis=seed_axis(seeds))
             keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
             values = {name: jax.ShapeDtypeStruct((seeds,), jnp.asarray(0.0).dtype)
                       for name in swept}
