@@ -8,6 +8,10 @@ so a stopped process leaves the previous steps as they were):
     <directory>/<step>/state/   the arrays, orbax's `StandardSave` (tensorstore, never pickle)
     <directory>/<step>/meta/    JSON: {"format": FORMAT, "meta": caller's metadata,
                                        "leaves": [{"shape", "dtype", "crc32"} per leaf]}
+    <directory>/<step>/state_sizes.json   {file under state/: its bytes}, written after orbax's
+                                save: a data file cut short or extended is refused before
+                                tensorstore reads it (its reads past a file's end fail on
+                                background threads, which print tracebacks of their own)
 
 Leaves are the `jax.tree_util` leaves of the saved pytree in order, stored as host arrays
 named "0", "1", ...; a typed PRNG key array is stored as its `jax.random.key_data` and
@@ -23,6 +27,7 @@ from __future__ import annotations
 
 import errno
 import glob
+import json
 import os
 import shutil
 import zlib
@@ -35,11 +40,13 @@ FORMAT = 4
 """Format 4 is this module's (orbax); formats 2 and 3 were single msgpack files of earlier
 sac-jax (`sac_jax.legacy_checkpoint` reads them)."""
 KEEP = 2
+"""Steps kept: the newest and the one before it, to fall back on if the newest is damaged."""
 PACKED_BYTES = 1 << 16
 """Arrays smaller than this are stored packed together (`_pack`)."""
 ROOM_FOR_METADATA = 1 << 20
 """Bytes a step takes beyond its arrays' (orbax's metadata files: about 20 kB measured)."""
-"""Steps kept: the newest and the one before it, to fall back on if the newest is damaged."""
+SIZES = "state_sizes.json"
+"""A step's record of the byte sizes of its files under state/ (module docstring)."""
 
 
 class CheckpointError(ValueError):
@@ -111,6 +118,38 @@ def save(directory: str, step: int, tree: Any, meta: dict) -> None:
         manager.save(step, args=ocp.args.Composite(
             state=ocp.args.StandardSave(arrays),
             meta=ocp.args.JsonSave({"format": FORMAT, "meta": meta, "leaves": records})))
+    step_dir = os.path.join(directory, str(step))
+    with open(os.path.join(step_dir, SIZES + ".tmp"), "w") as f:
+        json.dump(_state_sizes(step_dir), f)
+    os.replace(os.path.join(step_dir, SIZES + ".tmp"), os.path.join(step_dir, SIZES))
+
+
+def _state_sizes(step_dir: str) -> dict:
+    """{path under `step_dir`/state: bytes} of every file there."""
+    root = os.path.join(step_dir, "state")
+    return {os.path.relpath(os.path.join(folder, name), root):
+            os.path.getsize(os.path.join(folder, name))
+            for folder, _, names in os.walk(root) for name in names}
+
+
+def _check_sizes(where: str) -> None:
+    """CheckpointError if a file under `where`/state differs in size from when it was written
+    (nothing to check in a step written before `SIZES` was)."""
+    path = os.path.join(where, SIZES)
+    if not os.path.exists(path):
+        return
+    try:
+        with open(path) as f:
+            written = dict(json.load(f))
+    except (OSError, ValueError, TypeError):
+        raise CheckpointError(f"checkpoint {where}: unreadable ({SIZES})") from None
+    now = _state_sizes(where)
+    changed = sorted(name for name in written.keys() | now.keys()
+                     if written.get(name) != now.get(name))
+    if changed:
+        raise CheckpointError(f"checkpoint {where}: damaged (state/{changed[0]} holds "
+                              f"{now.get(changed[0], 'no')} bytes, {written.get(changed[0], 'no')} "
+                              "when written)")
 
 
 def _pack(leaves: List[np.ndarray], records: List[dict]) -> dict:
@@ -235,6 +274,7 @@ def load(directory: str, template: Union[Any, Callable[[dict], Any]], step: Opti
             raise CheckpointError(
                 f"checkpoint {where}: array {i} is {record['dtype']}{record['shape']}, expected "
                 f"{want.dtype.name}{list(want.shape)} (another configuration?)")
+    _check_sizes(where)
     try:
         layout = _layout(records)
         with _manager(directory, create=False) as manager:
