@@ -48,6 +48,11 @@ def _cpus_delivered() -> List[Tuple[str, str]]:
     return [pair for pair in CPUS_DELIVERED if _find(pair[0])]
 
 
+def _cpus_delivered_files() -> List[str]:
+    """The results files of `_cpus_delivered` that exist, each CPU's warm file, then its cold."""
+    return [name for pair in _cpus_delivered() for name in pair if _find(name)]
+
+
 def _load(name: str) -> dict:
     with open(os.path.join(RESULTS, f"{name}.json")) as f:
         return json.load(f)
@@ -129,7 +134,7 @@ def _table(header: List[str], rows: List[List[str]]) -> str:
 def delivered_cpu() -> str:
     """The README's command per seed, cold starts and the many-seed run (CPU), per CPU model."""
     rows = []
-    for name in [n for pair in _cpus_delivered() for n in pair if _find(n)]:
+    for name in _cpus_delivered_files():
         data = _load(name)
         result, date, cpu = data["result"], _date(data), _cpu(data)
         runs = result["runs"]
@@ -467,7 +472,7 @@ def _target_delivered_cpu():
                     and first and first["solved_process_s"] <= 25)
     figure = (f"{'; '.join(dict.fromkeys(good))} ≥ 950; warm: {'; '.join(warm)}; cold: "
               f"{'; '.join(cold)}")
-    return sorted(n for pair in pairs for n in pair if _find(n)), [(figure, met)]
+    return sorted(_cpus_delivered_files()), [(figure, met)]
 
 
 def _target_presets():
