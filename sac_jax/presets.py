@@ -16,8 +16,9 @@
     PendulumSwingup  CartpoleSwingup's with learning rates 1e-3, a starting temperature of 0.1
               and 5 episodes per evaluation; no stop (a GPU preset)
     AcrobotSwingup  PendulumSwingup's with 512-wide networks, Playground SAC's updates (8 per
-              step, batch 512, tau 0.005), observation normalisation, 256 environments,
-              8,192,000 steps, evaluations stepped alongside training (a GPU preset)
+              step, batch 512, tau 0.005, 8,192 steps before learning), a starting
+              temperature of 1, observation normalisation, 256 environments, 8,192,000 steps
+              evaluated every 8,192, evaluations stepped alongside training (a GPU preset)
 
 The measurements that chose each tuned preset's numbers, with their result files:
 docs/presets.md.

@@ -186,10 +186,10 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     """(parts, compiled vmapped init, `Chunk` of the compiled vmapped `advance` and `evaluate`,
     the state's sharding) for `seeds` seeds of `config` (with the hyperparameters `swept`
     traced, one value per seed: `init(keys, {name: (seeds,)})`), the seeds split into equal
-    groups over the local devices (`sac_jax.parallel.seed_devices`). Kept per (config, seeds),
-    so later runs of the same shapes in this process neither trace nor compile again; other
-    processes find the compiled programs in the persistent compilation cache and the traced
-    ones in `sac_jax.program_cache`."""
+    groups over the local devices (`sac_jax.parallel.seed_devices`). Kept per (config, seeds,
+    swept), so later runs of the same shapes in this process neither trace nor compile again;
+    other processes find the compiled programs in the persistent compilation cache and the
+    traced ones in `sac_jax.program_cache`."""
     directory = program_directory()
     # XLA compiles without Python's lock: each program compiles while the next is traced
     with concurrent.futures.ThreadPoolExecutor(4) as pool:

@@ -66,8 +66,9 @@ def critic_objective(agent: Agent, state: SACState, batch: Transition,
                      key_or_noise: jax.Array) -> Callable:
     """params -> (J_Q(params), Q (N, B)) for a fixed target (see `losses.critic_loss`).
 
-    v2 target: r + gamma (1 - d)(min_j Q-bar_j(s', a') - alpha log pi(a'|s')), a' = f(eps; s'),
-    eps (B, A). v1 target: c r + gamma (1 - d) V-bar(s') (the noise is unused).
+    v2 target: c r + gamma (1 - d)(min_j Q-bar_j(s', a') - alpha log pi(a'|s')),
+    a' = f(eps; s'), eps (B, A). v1 target: c r + gamma (1 - d) V-bar(s') (the noise is unused).
+    c is `reward_scale`.
     """
     cfg, hp = agent.config, agent.hyperparams
     obs, next_obs = (normalize(state.actor_params, o) for o in (batch.obs, batch.next_obs))

@@ -19,7 +19,7 @@ is reported and the others train on.
 Writes the sweep directory (default runs/sweep-<preset>-<time>): sweep.json (what was asked),
 programs/<i>/ (a run directory per program, as scripts/train.py writes; `sac_jax.load_policy`
 loads its runs, setting-major), results.csv (one row per setting and seed: its values, the
-delivered actor's confirmed return, when it was first solved, the last evaluation and the last
+delivered actor's confirmed return, the step from which it stayed solved, the last evaluation and the last
 period's losses), sweep.png (delivered return against each swept field, and each setting's
 learning curve), and prints the best setting (highest mean delivered return over its seeds,
 then earliest mean solved step) as a ready scripts/train.py command line. With `--track`, each
