@@ -101,16 +101,11 @@ class Agent:
         return squashed_gaussian_sample(mean, log_std, noise, self.action_scale,
                                         self.action_bias, self.config.log_prob_correction)
 
-    def act(self, actor_params, obs: jax.Array, key: Optional[jax.Array] = None) -> jax.Array:
-        """An action in environment units for obs (..., O): sampled if `key` is given, else the
-        deterministic scale * tanh(mu(s)) + bias (raw observations, as `sample_action`)."""
-        mean, log_std = self.actor.apply(actor_params,
-                                         observation_norm.normalize(actor_params, obs))
-        if key is None:
-            return deterministic_action(mean, self.action_scale, self.action_bias)
-        noise = jax.random.normal(key, mean.shape, mean.dtype)
-        return squashed_gaussian_sample(mean, log_std, noise, self.action_scale,
-                                        self.action_bias, self.config.log_prob_correction)[0]
+    def act(self, actor_params, obs: jax.Array) -> jax.Array:
+        """The deterministic action scale * tanh(mu(s)) + bias in environment units for obs
+        (..., O) (raw observations, as `sample_action`); a sampled one is `sample_action`'s."""
+        mean, _ = self.actor.apply(actor_params, observation_norm.normalize(actor_params, obs))
+        return deterministic_action(mean, self.action_scale, self.action_bias)
 
     # ------------------------------------------------------------------ state
     def init(self, key: jax.Array) -> SACState:

@@ -52,7 +52,7 @@ class FromKeys:
 
     def acting(self, k_act: jax.Array, k_random: jax.Array, iteration: jax.Array
                ) -> Tuple[jax.Array, jax.Array]:
-        """U(low, high) actions from k_random; eps from k_act, as `Agent.act` draws it."""
+        """U(low, high) actions from k_random; N(0, 1) noise eps (n, A) from k_act."""
         shape = (self._n,) + self._low.shape
         return (jax.random.uniform(k_random, shape, minval=self._low, maxval=self._high),
                 jax.random.normal(k_act, shape, jnp.float32))

@@ -260,7 +260,7 @@ def make_train_parts(config: SACConfig,
         return runner.replace(key=key, sums=sums, outputs=outputs, delivered=delivered,
                               stopped=stopped, pending=pending)
 
-    def iteration(agent: Agent, runner: RunnerState, _):
+    def iteration(agent: Agent, runner: RunnerState) -> RunnerState:
         learning = runner.iteration >= prefill
         key, k_act, k_random, k_learn = jax.random.split(runner.key, 4)
         random_action, action_noise = source.acting(k_act, k_random, runner.iteration)
@@ -298,7 +298,7 @@ def make_train_parts(config: SACConfig,
         sums = _accumulate(runner.sums, metrics, counts)
         return runner.replace(sac=sac, env=env_state, buffer=buffer, key=key, sums=sums,
                               iteration=runner.iteration + 1, non_finite=non_finite,
-                              pending=pending), None
+                              pending=pending)
 
     def next_boundary(iterations_done: jax.Array) -> jax.Array:
         """The iteration count at which the chunk starting at `iterations_done` ends."""
@@ -311,7 +311,7 @@ def make_train_parts(config: SACConfig,
         if max_iterations is not None:
             end = jnp.minimum(end, runner.iteration + max_iterations)
         return jax.lax.while_loop(lambda r: r.iteration < end,
-                                  lambda r: iteration(run_agent, r, None)[0], runner)
+                                  lambda r: iteration(run_agent, r), runner)
 
     def evaluate(runner: RunnerState) -> RunnerState:
         run_agent = agent.with_hyperparams(runner.hyperparams)
@@ -341,7 +341,8 @@ def make_train_parts(config: SACConfig,
                              terminated=jnp.float32(0))
         zero = jnp.float32(0)
         sac = agent.with_hyperparams(hyperparams).init(k_sac)
-        # empty slots of evaluations under way, from a key of their own
+        # empty slots of evaluations under way (never stepped while empty, nor scored, so any
+        # states will do: these start where the training environments do)
         pending = points.init_pending(jax.random.fold_in(k_env, 1), sac.actor_params)
         return RunnerState(
             sac=sac, env=env_state, buffer=rb.init(config.buffer_size, example),
