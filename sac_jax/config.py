@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import numbers
 import typing
 from typing import Annotated, Literal, Optional, Tuple
 
@@ -63,7 +64,7 @@ class SACConfig:
     updates_per_step: int = 1
     """Gradient updates (calls of `sac_update`) per iteration of `num_envs` environment steps."""
     eval_every: int = 5_000
-    """Environment steps between deterministic evaluations (rounded down to whole iterations)."""
+    """Environment steps between deterministic evaluations (a multiple of `num_envs`)."""
     eval_episodes: int = 10
     """Evaluation episodes, run in parallel on their own environment instances."""
     confirm_episodes: int = 20
@@ -229,10 +230,13 @@ class SACConfig:
             if not sizes or any(isinstance(h, bool) or not isinstance(h, int) or h <= 0
                                 for h in sizes):
                 fail(field, "must be a non-empty tuple of positive integers")
+        def real(value) -> bool:
+            return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
         for field in ("gamma", "tau", "reward_scale", "loss_coef", "actor_lr", "critic_lr",
                       "alpha_lr", "value_lr", "alpha_init", "log_std_min", "log_std_max"):
-            if not math.isfinite(getattr(self, field)):
-                fail(field, "must be finite")
+            if not real(getattr(self, field)) or not math.isfinite(getattr(self, field)):
+                fail(field, "must be a finite number")
         for field in ("actor_lr", "critic_lr", "alpha_lr", "value_lr", "alpha_init",
                       "reward_scale", "loss_coef"):
             if getattr(self, field) <= 0:
@@ -245,8 +249,8 @@ class SACConfig:
             fail("log_std_min", f"must be below log_std_max={self.log_std_max}")
         for field in ("log_alpha_init", "target_entropy", "last_layer_init", "stop_return"):
             value = getattr(self, field)
-            if value is not None and not math.isfinite(value):
-                fail(field, "must be finite or None")
+            if value is not None and (not real(value) or not math.isfinite(value)):
+                fail(field, "must be a finite number or None")
         if self.data_parallel_axis is not None and (
                 not isinstance(self.data_parallel_axis, str) or not self.data_parallel_axis):
             fail("data_parallel_axis", "must be a non-empty axis name or None")
@@ -263,6 +267,8 @@ class SACConfig:
             fail("learning_starts", f"must be a multiple of num_envs={self.num_envs}")
         if self.eval_every % self.num_envs:
             fail("eval_every", f"must be a multiple of num_envs={self.num_envs}")
+        if self.total_steps >= 2 ** 31:
+            fail("total_steps", "must be below 2**31 (environment steps are counted in int32)")
         if self.total_steps < self.learning_starts + self.eval_every:
             fail("total_steps", f"must be at least learning_starts + eval_every = "
                  f"{self.learning_starts + self.eval_every}")

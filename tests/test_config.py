@@ -82,6 +82,19 @@ def test_total_steps_must_reach_one_evaluation():
         SACConfig(total_steps=5000, learning_starts=5000, eval_every=1000)
 
 
+def test_total_steps_must_fit_the_int32_step_count():
+    with pytest.raises(ValueError, match=r"SACConfig\.total_steps=2147483648: must be below 2\*\*31"):
+        SACConfig(total_steps=2 ** 31)
+    assert SACConfig(total_steps=2 ** 31 - 1).total_steps == 2 ** 31 - 1
+
+
+@pytest.mark.parametrize("field,value", [("gamma", "0.9"), ("gamma", True), ("tau", None),
+                                         ("target_entropy", "x"), ("actor_lr", float("inf"))])
+def test_real_fields_refuse_what_is_not_a_finite_number(field, value):
+    with pytest.raises(ValueError, match=rf"SACConfig\.{field}=.*: must be a finite number"):
+        SACConfig(**{field: value})
+
+
 def test_v1_rejects_a_learned_temperature():
     with pytest.raises(ValueError, match=r"SACConfig\.learn_alpha=True"):
         SACConfig(variant="v1", update_order=("value", "actor", "critic"))
@@ -117,7 +130,7 @@ def test_stop_return_defaults_to_the_tasks_solved_return():
     config = SACConfig(env="Pendulum-v1", stop_when_solved=True)
     assert config.stop_at == envs.spec("Pendulum-v1").solved_return
     assert config.replace(stop_return=-100.0).stop_at == -100.0
-    with pytest.raises(ValueError, match=r"SACConfig.stop_return=nan: must be finite or None"):
+    with pytest.raises(ValueError, match=r"SACConfig.stop_return=nan: must be a finite number or None"):
         config.replace(stop_return=float("nan"))
 
 
