@@ -77,6 +77,14 @@ def positive(name: str, value: int) -> None:
         raise ValueError(f"--{name.replace('_', '-')}={value!r}: must be a positive integer")
 
 
+def prng_seed(name: str, value: int) -> None:
+    """ValueError naming the flag `--name` unless `value` is an integer in [0, 2**32): a PRNG
+    key holds 32 bits of its seed, so 2**32 would give seed 0's keys."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2 ** 32:
+        raise ValueError(f"--{name.replace('_', '-')}={value!r}: must be an integer in "
+                         "[0, 2**32)")
+
+
 class LeaveNow(Exception):
     """Raised by a script's `main` that has said why in one line and must exit with `code`
     without waiting for the device, which may still run the chunk it left (`run_main`)."""

@@ -39,7 +39,7 @@ import sac_jax
 from envs.pendulum import PendulumData
 from sac_jax import run_dir
 from sac_jax.evaluation import initial_states
-from sac_jax.cli import MissingDependency, fail, parse, positive, run_main
+from sac_jax.cli import MissingDependency, fail, parse, positive, prng_seed, run_main
 
 GYMNASIUM_MISSING = 'Gymnasium is not installed: pip install "gymnasium[mujoco]"'
 
@@ -68,6 +68,7 @@ class EvaluateArgs:
 
     def __post_init__(self):
         positive("episodes", self.episodes)
+        prng_seed("episode_seed", self.episode_seed)
         if self.paired and self.which not in (None, "both"):
             raise ValueError(f"--paired compares ours with Gymnasium: needs --which both, "
                              f"not {self.which}")

@@ -72,7 +72,8 @@ from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from envs.task_adapter import TaskAdapter  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
-from sac_jax.cli import MissingDependency, fail, parse, positive, run_main  # noqa: E402
+from sac_jax.cli import (MissingDependency, fail, parse, positive, prng_seed,  # noqa: E402
+                         run_main)
 
 FORMATS = (".gif", ".mp4")
 
@@ -107,6 +108,7 @@ class RenderArgs:
         for name in ("steps", "fps", "width", "height"):
             if getattr(self, name) is not None:
                 positive(name, getattr(self, name))
+        prng_seed("episode_seed", self.episode_seed)
 
 
 def rollout(policy: sac_jax.SavedPolicy, env, key: jax.Array, steps: int):

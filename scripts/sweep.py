@@ -55,7 +55,7 @@ from sac_jax import (hyperparams, memory, metric_writers, parallel, run_checkpoi
                      run_dir, tracking)
 from sac_jax.cli import (EXIT_CODES, CompileNotice, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, device_split, fail, parse_with_preset,
-                         progress_line, run_main, write_results)
+                         positive, prng_seed, progress_line, run_main, write_results)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
@@ -101,8 +101,8 @@ class SweepArgs:
     config: Annotated[SACConfig, tyro.conf.OmitArgPrefixes] = PRESETS[DEFAULT_PRESET]
 
     def __post_init__(self):
-        if self.seeds < 1:
-            raise ValueError(f"--seeds={self.seeds}: must be at least 1")
+        positive("seeds", self.seeds)
+        prng_seed("seed", self.seed)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -52,7 +52,7 @@ from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  
                          run_training)
 from sac_jax.cli import (EXIT_CODES, CompileNotice, PresetName, StopRequest,  # noqa: E402
                          check_resume_flags, device_split, fail, parse_with_preset,
-                         progress_line, run_main, write_results)
+                         positive, prng_seed, progress_line, run_main, write_results)
 
 if __name__ == "__main__":
     # The imports above make about 160,000 objects that live on. With the collector off while
@@ -107,8 +107,8 @@ class TrainArgs:
     config: Annotated[SACConfig, tyro.conf.OmitArgPrefixes] = PRESETS[DEFAULT_PRESET]
 
     def __post_init__(self):
-        if self.seeds < 1:
-            raise ValueError(f"--seeds={self.seeds}: must be at least 1")
+        positive("seeds", self.seeds)
+        prng_seed("seed", self.seed)
         if self.resume_step is not None and self.resume is None:
             raise ValueError(f"--resume-step={self.resume_step}: only with --resume")
 

@@ -101,6 +101,12 @@ def test_bad_episodes(run, capsys, value):
     _fails(capsys, [run, "--episodes", value], 2, "--episodes")
 
 
+@pytest.mark.parametrize("value", ["-1", str(2 ** 32)])
+def test_bad_episode_seed(run, capsys, value):
+    _fails(capsys, [run, "--episode-seed", value], 2,
+           f"--episode-seed={value}: must be an integer in [0, 2**32)")
+
+
 def test_paired_needs_both(run, capsys):
     _fails(capsys, [run, "--which", "ours", "--paired"], 2, "--paired")
 

@@ -155,6 +155,11 @@ def test_non_positive_values(runs, capsys, flag):
     _fails(capsys, [runs["pendulum"], flag, "0"], 2, f"{flag}=0: must be a positive integer")
 
 
+def test_episode_seed_out_of_range(runs, capsys):
+    _fails(capsys, [runs["pendulum"], "--episode-seed", "-1"], 2,
+           "--episode-seed=-1: must be an integer in [0, 2**32)")
+
+
 def test_mp4_without_a_video_encoder(runs, tmp_path, capsys, monkeypatch):
     for module in ("imageio_ffmpeg", "av"):
         monkeypatch.setitem(sys.modules, module, None)  # import -> ImportError

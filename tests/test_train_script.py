@@ -32,7 +32,9 @@ from tests.subprocess_json import ROOT
     (["--tau", "3"], "error: SACConfig.tau=3.0: must lie in (0, 1]"),
     (["--env", "Nope-v0"], "error: SACConfig.env='Nope-v0': unknown environment"),
     (["--batch-size", "0"], "error: SACConfig.batch_size=0: must be a positive integer"),
-    (["--seeds", "0"], "error: --seeds=0: must be at least 1"),
+    (["--seeds", "0"], "error: --seeds=0: must be a positive integer"),
+    (["--seed", "-1"], "error: --seed=-1: must be an integer in [0, 2**32)"),
+    (["--seed", str(2 ** 32)], f"error: --seed={2 ** 32}: must be an integer in [0, 2**32)"),
 ])
 def test_bad_values_end_with_one_line_and_exit_code_2(argv, message, capsys):
     assert train_script.main(argv) == 2
