@@ -94,7 +94,9 @@ def save(directory: str, step: int, tree: Any, meta: dict) -> None:
     """Writes `tree` (a pytree of arrays, or `to_host`'s leaves, stored as they are: no further
     copy of a state's replay data) and the JSON-able `meta` as
     step `step` of the checkpoint directory `directory` (created if missing), keeping the
-    newest `KEEP` steps; a step already there is replaced. Synchronous: `CheckpointWriter`
+    newest `KEEP` steps. A step already there, and any after it, are removed first: a run
+    resumed from an earlier step continues from there, and orbax writes only steps after its
+    newest. Synchronous: `CheckpointWriter`
     in `sac_jax.run_checkpoint` calls it off the training's critical path. A filesystem without
     room for the arrays' bytes (an upper bound: orbax may compress them) is refused before
     anything is written, with OSError(ENOSPC): orbax, failing part-way, leaves a half-written
@@ -113,8 +115,8 @@ def save(directory: str, step: int, tree: Any, meta: dict) -> None:
     ocp = _ocp()
     remove_partial(directory)
     with _manager(directory, create=True) as manager:
-        if step in manager.all_steps():
-            manager.delete(step)
+        for later in [s for s in manager.all_steps() if s >= step]:
+            manager.delete(later)
         manager.save(step, args=ocp.args.Composite(
             state=ocp.args.StandardSave(arrays),
             meta=ocp.args.JsonSave({"format": FORMAT, "meta": meta, "leaves": records})))

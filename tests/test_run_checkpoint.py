@@ -45,6 +45,16 @@ def test_the_state_comes_back_bit_for_bit(run):
     assert int(first.buffer.size) == 0
 
 
+def test_a_run_resumed_from_an_earlier_step_saves_in_place_of_the_later_ones(run, tmp_path):
+    """Resumed from step 0 of a run that also holds step 800, the next save (400) replaces 800:
+    orbax writes only steps after its newest, and the save had failed."""
+    copy = copied_run(run[0], tmp_path)
+    _, _, first, _ = run_checkpoint.load_checkpoint(copy, step=0)
+    run_checkpoint.save_checkpoint(copy, first, Position(chunks_done=1, env_steps=400))
+    assert run_checkpoint.saved_steps(copy) == [0, 400]
+    _assert_same(first, run_checkpoint.load_checkpoint(copy)[2])
+
+
 def test_only_the_filled_replay_slots_are_stored(run):
     out, saved = run
     header = checkpoint_header(newest_checkpoint(out))
