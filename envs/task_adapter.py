@@ -3,8 +3,8 @@ envs/playground.py, Brax's in envs/brax_tasks.py): a task whose ``reset(key)`` a
 ``step(state, action)`` return a state with ``obs``, ``reward`` and ``done``, behind our `Env`.
 
 * **Time limit = truncation.** Neither library's task counts its steps: the limit of
-  ``episode_length`` steps is left to wrappers (Brax's ``EpisodeWrapper``, whose auto-reset
-  also overwrites the final observation). Here ``truncated`` is ``step_count >=
+  ``episode_length`` steps is left to wrappers (Brax's ``EpisodeWrapper``; its
+  ``AutoResetWrapper`` also overwrites the final observation). Here ``truncated`` is ``step_count >=
   episode_length`` (our rule for every environment), and the step returns the true final
   observation, which a truncated transition bootstraps from.
 * **``done`` = termination**: ``terminated = done > 0``, or a non-finite action (our rule: the

@@ -205,7 +205,7 @@ class SACConfig:
             choice("env_impl", ENV_IMPLS)
             if not self.env.startswith(envs.playground.PREFIX):
                 fail("env_impl", f"only MuJoCo Playground tasks (playground/<Task>) have a "
-                     f"backend choice; {self.env} is MJX")
+                     f"backend choice, not {self.env}")
         choice("variant", VARIANTS)
         choice("init", INITS)
         choice("log_std_mode", LOG_STD_MODES)

@@ -4,7 +4,8 @@ then compiles one program per device and the collectives between them).
 
 Seeds over devices (axis "seeds"): the S independent runs of `jax.vmap(train)` are split into
 D groups of S/D, one per device, by sharding the seed axis (`NamedSharding`); the program is
-the same, and the devices never communicate.
+the same, and the devices exchange only one sum per iteration, whether an episode ended in any
+seed (`envs.VectorEnv`'s `reset_axis`: all seeds reset together, one branch under `vmap`).
 
 Data parallel (axis "data"): one run, spread over D devices as D shares vmapped with the axis's
 name and split over the devices (`DATA_AXES`). Device d steps num_envs/D of the
