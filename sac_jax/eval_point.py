@@ -6,10 +6,10 @@ actors acting in them, and the selection of the delivered actor on their returns
 A point steps 2 E episodes, E = eval_episodes + confirm_episodes, as one batch (leading axis
 2 E):
 
-    rows 0 .. eval_episodes - 1     the point's actor from the evaluation's initial states
-                                    (its score s)
-    rows eval_episodes .. E - 1     the point's actor from fresh initial states, drawn from a
-                                    key no other evaluation draws from (its confirmed return c)
+    rows 0 .. eval_episodes - 1     the point's actor from the evaluation's initial states,
+                                    drawn from k_eval (its score s)
+    rows eval_episodes .. E - 1     the point's actor from fresh initial states, drawn from
+                                    k_confirm (its confirmed return c)
     rows E .. 2 E - 1               the kept actor from the same E initial states (its return
                                     k on the confirmation's rows)
 
@@ -85,17 +85,18 @@ class EvalPoints:
             return 0
         return -(-self.env.max_episode_steps // self.config.iterations_per_eval)
 
-    def start(self, k_eval: jax.Array) -> Episodes:
-        """A point's 2 E episodes before their first step (see the module docstring)."""
+    def start(self, k_eval: jax.Array, k_confirm: jax.Array) -> Episodes:
+        """A point's 2 E episodes before their first step (see the module docstring); the
+        evaluation's initial states as `sac_jax.evaluate` draws them from `k_eval`."""
         cfg = self.config
         starts = initial_states(self.env, jnp.concatenate([
             jax.random.split(k_eval, cfg.eval_episodes),
-            jax.random.split(jax.random.fold_in(k_eval, 1), cfg.confirm_episodes)]))
+            jax.random.split(k_confirm, cfg.confirm_episodes)]))
         return begin(jax.tree_util.tree_map(lambda x: jnp.concatenate([x, x]), starts))
 
     def evaluate(self, agent: Agent, actor, delivered: selection.Delivered,
-                 pending: Optional[Pending], k_eval: jax.Array, index: jax.Array,
-                 env_steps: jax.Array) -> Tuple[selection.Delivered, List[jax.Array],
+                 pending: Optional[Pending], k_eval: jax.Array, k_confirm: jax.Array,
+                 index: jax.Array, env_steps: jax.Array) -> Tuple[selection.Delivered, List[jax.Array],
                                                 Optional[Pending]]:
         """Point `index` (of `config.num_evals`) after `env_steps` steps, with the learner's
         `actor`: (delivered actor after the point, [evaluation return, confirmed return, kept
@@ -103,7 +104,7 @@ class EvalPoints:
         end here; with it they start in a slot of `pending`, and the returns are those of the
         point D earlier, NaN where there is none (at the last point every evaluation under way
         runs to its end, and they are the last point's)."""
-        point = self.start(k_eval)
+        point = self.start(k_eval, k_confirm)
         if self.depth:
             return self._alongside(agent, actor, delivered, pending, point, index, env_steps)
         returns = run_episodes(self.env, self._act_by_group(
@@ -117,7 +118,7 @@ class EvalPoints:
         depth = self.depth
         if not depth:
             return None
-        placeholder = self.start(key)
+        placeholder = self.start(*jax.random.split(key))
         rows = lambda x: jnp.concatenate([x] * depth)
         return Pending(
             actor_params=jax.tree_util.tree_map(

@@ -229,8 +229,8 @@ def make_train_parts(config: SACConfig,
     nan = jnp.float32(jnp.nan)
 
     # The key chain: init splits (k_sac, k_env, k_run); each iteration splits the run key into
-    # (key, k_act, k_random, k_learn); each evaluation splits (key, k_eval). `record_draws`
-    # follows the same chain.
+    # (key, k_act, k_random, k_learn); each evaluation splits (key, k_eval, k_confirm).
+    # `record_draws` follows the same chain.
     def evaluates_after(iterations_done: jax.Array) -> jax.Array:
         after_prefill = iterations_done - prefill
         return (after_prefill > 0) & (after_prefill % period == 0)
@@ -239,13 +239,13 @@ def make_train_parts(config: SACConfig,
     # hyperparameters (`Agent.with_hyperparams`).
     def evaluate_period(agent: Agent, runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
-        key, k_eval = jax.random.split(runner.key)
+        key, k_eval, k_confirm = jax.random.split(runner.key, 3)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
         with jax.named_scope("evaluate"):
             delivered, returns, pending = points.evaluate(
-                agent, runner.sac.actor_params, runner.delivered, runner.pending, k_eval, index,
-                out["env_steps"])
+                agent, runner.sac.actor_params, runner.delivered, runner.pending, k_eval,
+                k_confirm, index, out["env_steps"])
             out["eval_return"], out["confirm_return"], out["kept_return"] = returns
         stopped = runner.stopped
         if config.stop_when_solved:
@@ -326,7 +326,7 @@ def make_train_parts(config: SACConfig,
             draws = Draws(*keys.acting(k_act, k_random, i), batch_index=index,
                           update_noise=jax.vmap(lambda k: sample_noise(agent, k, batch_size))(
                               noise_keys))
-            key = jax.lax.cond(evaluates_after(i + 1), lambda k: jax.random.split(k)[0],
+            key = jax.lax.cond(evaluates_after(i + 1), lambda k: jax.random.split(k, 3)[0],
                                lambda k: k, key)
             return key, draws
 
@@ -342,7 +342,7 @@ def make_train_parts(config: SACConfig,
         zero = jnp.float32(0)
         sac = agent.with_hyperparams(hyperparams).init(k_sac)
         # empty slots of evaluations under way (never stepped while empty, nor scored, so any
-        # states will do: these start where the training environments do)
+        # states will do)
         pending = points.init_pending(jax.random.fold_in(k_env, 1), sac.actor_params)
         return RunnerState(
             sac=sac, env=env_state, buffer=rb.init(config.buffer_size, example),

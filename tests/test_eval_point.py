@@ -17,14 +17,16 @@ from test_eval_alongside import CONFIG  # Pendulum-v1, E = 7; D = 3 with eval_al
 
 def test_a_points_batch_is_the_evaluations_then_the_confirmations_then_both_again():
     _, env = agent_for(CONFIG)
-    points, key = EvalPoints(CONFIG, env), jax.random.key(5)
-    obs = np.asarray(points.start(key).start.obs)
+    points, (key, k_confirm) = EvalPoints(CONFIG, env), jax.random.split(jax.random.key(5))
+    obs = np.asarray(points.start(key, k_confirm).start.obs)
     e = CONFIG.eval_episodes + CONFIG.confirm_episodes
     assert points.episodes == e and obs.shape[0] == 2 * e
     evaluation = jax.vmap(env.reset)(jax.random.split(key, CONFIG.eval_episodes)).obs
     np.testing.assert_array_equal(obs[:CONFIG.eval_episodes], evaluation)
     confirmation = obs[CONFIG.eval_episodes:e]
     assert not np.isin(confirmation, evaluation).any()  # initial states no evaluation used
+    fresh = jax.vmap(env.reset)(jax.random.split(k_confirm, CONFIG.confirm_episodes)).obs
+    np.testing.assert_array_equal(confirmation, fresh)
     np.testing.assert_array_equal(obs[e:], obs[:e])  # the kept actor's: the same states
 
 
@@ -33,16 +35,17 @@ def test_the_selection_sees_each_actors_own_returns():
     `sac_jax.evaluate` gives the point's actor from the same key, and the kept actor's return
     is its own on the confirmation's initial states."""
     agent, env = agent_for(CONFIG)
-    points, key = EvalPoints(CONFIG, env), jax.random.key(7)
+    points, (key, k_confirm) = EvalPoints(CONFIG, env), jax.random.split(jax.random.key(7))
     actor = agent.init(jax.random.key(0)).actor_params
     kept = selection.init(agent.init(jax.random.key(1)).actor_params)
     kept = kept.replace(score=jnp.float32(-1e9), count=jnp.int32(1))  # any candidate replaces
     delivered, (score, confirmed, kept_return), pending = jax.jit(
-        lambda: points.evaluate(agent, actor, kept, None, key, jnp.int32(0), jnp.int32(300)))()
+        lambda: points.evaluate(agent, actor, kept, None, key, k_confirm, jnp.int32(0),
+                                jnp.int32(300)))()
     assert pending is None and points.depth == 0
     expected = sac_jax.evaluate(agent, env, actor, key, CONFIG.eval_episodes)
     np.testing.assert_allclose(score, np.mean(expected), rtol=1e-5)
-    start = points.start(key).start
+    start = points.start(key, k_confirm).start
     confirm_states = jax.tree_util.tree_map(
         lambda x: x[CONFIG.eval_episodes:points.episodes], start)
     for params, value in ((actor, confirmed), (kept.actor_params, kept_return)):
