@@ -1,8 +1,8 @@
 """What the command-line scripts share: a tyro command line generated from a dataclass, whose bad
 input ends with one line on stderr and no traceback (exit 2); a missing dependency ends the same
 way with exit 1; and what scripts/train.py and scripts/sweep.py both do: presets as the
-defaults of the config flags, the compile and progress lines, stopping on a signal, a run's
-result files.
+defaults of the config flags, the compile and progress lines, stopping on a signal, training
+into a run directory and its result files, and the one line a run that fails ends with.
 
 tyro reports bad input in multi-line panels; `parse` turns each report into one line naming the
 flag and the value. It uses tyro's parse-error hook (`tyro._errors.on_parse_error`), which tyro
@@ -13,14 +13,17 @@ tests/test_cli.py checks every kind of report.
 from __future__ import annotations
 
 import math
+import shutil
 import signal
 import sys
-from typing import TYPE_CHECKING, Literal, NoReturn, Optional, Sequence, Type, TypeVar
+from typing import (TYPE_CHECKING, Any, Dict, Literal, NoReturn, Optional, Sequence, Tuple, Type,
+                    TypeVar)
 
 import tyro
 from tyro import _errors
 
-from sac_jax import compilation_cache, metric_writers, parallel, plots
+from sac_jax import (compilation_cache, metric_writers, parallel, plots, run_checkpoint,
+                     tracking)
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
 
 if TYPE_CHECKING:
@@ -256,3 +259,94 @@ def write_results(out: str, config, preset: str, result: RunResult) -> None:
         plots.write_curves(out, result.metrics, result.points,
                              f"{config.env}, preset {preset}",
                              result.summary["solved_threshold"])
+
+
+class RunFailed(Exception):
+    """What a run cannot go on from, as one line: a checkpoint that cannot be written (e.g. a
+    full disk), or device memory exhausted (`out_of_memory`)."""
+
+    def __init__(self, line: str, out_of_memory: bool = False):
+        super().__init__(line)
+        self.out_of_memory = out_of_memory
+
+
+def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settings, resume,
+                 stop: StopRequest, runs: int, tracked: Dict[str, Any], started: float,
+                 stop_on_non_finite: bool = True) -> Tuple["RunResult", int]:
+    """Trains `config` in the run directory `out` (`run_dir.create`'s, or the one whose
+    checkpoint `resume` = (state, position) holds), as scripts/train.py and each program of
+    scripts/sweep.py do: the compile line, a progress line per evaluation point (`runs` runs),
+    TensorBoard records, W&B's where the directory's tracking settings ask (`tracked`: the
+    run's W&B config), checkpoints written in the background, the result files; `started` is
+    `time.perf_counter()` at the process's start (`run_training`'s). Returns the
+    `RunResult` and its exit code: 0 finished, the signal's if `stop` stopped it, else 1.
+    Raises `RunFailed` (exit 1), and KeyboardInterrupt or `sac_jax.run.DeviceBusy` as
+    `run_training` does; every file is whole or absent."""
+    import jax
+
+    from sac_jax.run import FINISHED, INTERRUPTED, evaluation_points, run_training
+
+    history = evaluation_points(config, resume[0]) if resume else []  # the points done
+    tensorboard = metric_writers.TensorBoard(out, history)
+    wandb_run = tracking.follow(out, tracked, history)
+    writers = [w for w in (tensorboard, wandb_run) if w is not None]
+
+    def on_point(step, means, eval_returns, elapsed):
+        print(progress_line(step, means, runs, elapsed, config.run_steps), flush=True)
+        for writer in writers:
+            writer.add_point(step, means, eval_returns)
+
+    checkpoints = run_checkpoint.CheckpointWriter(out)
+    notice = stop.notice = CompileNotice()
+    try:
+        try:
+            result = run_training(
+                config, seeds=seeds, seed=seed, settings=settings, resume=resume,
+                on_ready=notice.ready, on_point=on_point, on_checkpoint=checkpoints.save,
+                should_stop=lambda: stop.signal is not None, started=started,
+                check_memory=False, stop_on_non_finite=stop_on_non_finite)  # checked before
+        finally:
+            notice.close()
+            try:
+                tensorboard.close()
+            finally:  # waits for the checkpoint under way, even if a signal came first
+                checkpoints.close()
+    except run_checkpoint.CheckpointWriteError as error:
+        raise RunFailed(str(error)) from None
+    except jax.errors.JaxRuntimeError as error:
+        if "RESOURCE_EXHAUSTED" not in str(error):
+            raise
+        raise RunFailed(f"out of memory on {jax.local_devices()[0].platform} "
+                        f"({first_line(error)}): lower --buffer-size or --seeds",
+                        out_of_memory=True) from None
+    write_results(out, config, preset, result)
+    code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
+    if wandb_run is not None:
+        wandb_run.finish(dict(result.summary, preset=preset), code)
+    return result, code
+
+
+def first_line(error: Exception) -> str:
+    """The first line of an XLA error, without its status code: "Out of memory while trying
+    to allocate 5.26GiB with allocator GPU_0_bfc on device 0"."""
+    line = str(error).strip().splitlines()[0]
+    return line.split(": ", 1)[-1].split(" [", 1)[0][:200]
+
+
+def kept(out: str, resume: Optional[str] = None) -> str:
+    """Which checkpoint of the run directory `out` that ended early is left to continue from
+    with --resume `resume` (default `out`)."""
+    steps = run_checkpoint.saved_steps(out)
+    if not steps:
+        return "no checkpoint was written"
+    return (f"the last checkpoint written (step {steps[-1]}) is kept: continue with --resume "
+            f"{resume or out}")
+
+
+def after_failure(error: RunFailed, out: str, new: bool, resume: Optional[str] = None) -> str:
+    """`kept`, after an out-of-memory failure of a `new` run whose directory holds no
+    checkpoint has removed it (nothing in it is worth keeping, and its name is free again)."""
+    if error.out_of_memory and new and not run_checkpoint.saved_steps(out):
+        shutil.rmtree(out, ignore_errors=True)
+        return f"{out} removed"
+    return kept(out, resume)

@@ -51,15 +51,14 @@ from typing import Annotated, Dict, List, Literal, Optional, Sequence, Tuple  # 
 import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
-from sac_jax import (hyperparams, memory, metric_writers, parallel, run_checkpoint,  # noqa: E402
-                     run_dir, tracking)
-from sac_jax.cli import (EXIT_CODES, CompileNotice, PresetName, StopRequest,  # noqa: E402
-                         check_resume_flags, device_split, fail, parse_with_preset,
-                         positive, prng_seed, progress_line, run_main, write_results)
+from sac_jax import (hyperparams, memory, parallel, run_checkpoint, run_dir,  # noqa: E402
+                     tracking)
+from sac_jax.cli import (EXIT_CODES, PresetName, RunFailed, StopRequest,  # noqa: E402
+                         after_failure, check_resume_flags, device_split, fail,
+                         parse_with_preset, positive, prng_seed, run_main, train_in_dir)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
-                         run_training)
+from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy  # noqa: E402
 
 LOSSES = ("critic_loss", "actor_loss", "alpha_loss", "value_loss", "alpha")
 
@@ -240,7 +239,7 @@ def _memory_lines(args: SweepArgs, programs: List[Program], seeds: int) -> List[
 def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequest,
                  fits: str, count: int):
     """Trains program i (resuming its checkpoint if it has one); its `RunResult`, or None if it
-    had already finished."""
+    had already finished. `RunFailed` names the program and what the sweep leaves."""
     path = _program_dir(out, i)
     seeds, runs = sweep["seeds"], sweep["seeds"] * len(program.indices)
     resume = None
@@ -267,38 +266,16 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
           f"{len(program.indices)} setting(s) x {seeds} seed(s) = {runs} runs"
           f"{device_split(runs)}, {program.config.run_steps} steps each; {fits} -> {path}",
           flush=True)
-    history = evaluation_points(program.config, resume[0]) if resume else []
-    tensorboard = metric_writers.TensorBoard(path, history)
-    wandb_run = tracking.follow(path, dict(
-        dataclasses.asdict(program.config), preset=sweep["preset"], seeds=seeds,
-        seed=sweep["seed"], settings=program.settings), history)
-    writers = [w for w in (tensorboard, wandb_run) if w is not None]
-
-    def on_point(step, means, eval_returns, elapsed):
-        print(progress_line(step, means, runs, elapsed, program.config.run_steps),
-              flush=True)
-        for writer in writers:
-            writer.add_point(step, means, eval_returns)
-
-    checkpoints = run_checkpoint.CheckpointWriter(path)
-    notice = stop.notice = CompileNotice()
     try:
-        result = run_training(
-            program.config, seeds=seeds, seed=sweep["seed"], settings=program.settings,
-            resume=resume, on_ready=notice.ready, on_point=on_point,
-            on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
-            started=STARTED, check_memory=False, stop_on_non_finite=False)
-    finally:
-        notice.close()
-        try:
-            tensorboard.close()
-        finally:  # waits for the checkpoint under way, even if a signal came first
-            checkpoints.close()
-    write_results(path, program.config, sweep["preset"], result)
-    if wandb_run is not None:
-        code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
-        wandb_run.finish(dict(result.summary, preset=sweep["preset"]), code)
-    return result
+        return train_in_dir(
+            path, program.config, sweep["preset"], seeds=seeds, seed=sweep["seed"],
+            settings=program.settings, resume=resume, stop=stop, runs=runs, started=STARTED,
+            tracked=dict(dataclasses.asdict(program.config), preset=sweep["preset"],
+                         seeds=seeds, seed=sweep["seed"], settings=program.settings),
+            stop_on_non_finite=False)[0]
+    except RunFailed as error:  # the sweep, not the program, is what a user resumes
+        raise RunFailed(f"program {i + 1}: {error}; "
+                        f"{after_failure(error, path, resume is None, out)}") from None
 
 
 def _span(values) -> str:
@@ -444,6 +421,9 @@ def main(argv=None) -> int:
                 return EXIT_CODES[stop.signal]
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
         stop.leave_now(error, f"continue with --resume {out}")
+    except RunFailed as error:  # a checkpoint that cannot be written, memory exhausted
+        print(f"error: {error}", file=sys.stderr, flush=True)
+        return 1
     except ValueError as error:  # a program's checkpoint that cannot be read back
         return fail(error, 2)
     finally:

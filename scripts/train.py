@@ -34,25 +34,21 @@ if __name__ == "__main__":
 
 import dataclasses  # noqa: E402
 import os  # noqa: E402
-import shutil  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
 from typing import Annotated, Literal, Optional, Sequence  # noqa: E402
 
-import jax  # noqa: E402
 import tyro  # noqa: E402
 
 
 import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax import (memory, metric_writers, parallel, run_checkpoint, run_dir,  # noqa: E402
-                     tracking)
-from sac_jax.run import (FINISHED, INTERRUPTED, DeviceBusy, evaluation_points,  # noqa: E402
-                         run_training)
-from sac_jax.cli import (EXIT_CODES, CompileNotice, PresetName, StopRequest,  # noqa: E402
-                         check_resume_flags, device_split, fail, parse_with_preset,
-                         positive, prng_seed, progress_line, run_main, write_results)
+from sac_jax import memory, parallel, run_checkpoint, run_dir, tracking  # noqa: E402
+from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy  # noqa: E402
+from sac_jax.cli import (EXIT_CODES, PresetName, RunFailed, StopRequest,  # noqa: E402
+                         after_failure, check_resume_flags, device_split, fail, kept,
+                         parse_with_preset, positive, prng_seed, run_main, train_in_dir)
 
 if __name__ == "__main__":
     # The imports above make about 160,000 objects that live on. With the collector off while
@@ -210,53 +206,23 @@ def main(argv=None) -> int:
     print(f"{'resuming' if resume else 'preset'} {info.preset} on {config.env}: {seeds} "
           f"seed(s){device_split(seeds)}, {budget}, {config.num_envs} envs, "
           f"{config.updates_per_step} updates/iteration; {fits} -> {out}", flush=True)
-    history = evaluation_points(config, resume[0]) if resume else []  # the points done
-    tensorboard = metric_writers.TensorBoard(out, history)
-    wandb_run = tracking.follow(out, dict(dataclasses.asdict(config), **info.to_json()), history)
-    writers = [w for w in (tensorboard, wandb_run) if w is not None]
-
-    def on_point(step, means, eval_returns, elapsed):
-        print(progress_line(step, means, info.runs, elapsed, config.run_steps), flush=True)
-        for writer in writers:
-            writer.add_point(step, means, eval_returns)
-
     stop = StopRequest()
     previous = {s: signal.signal(s, stop) for s in EXIT_CODES}
-    checkpoints = run_checkpoint.CheckpointWriter(out)
-    notice = stop.notice = CompileNotice()
     try:
-        try:
-            result = run_training(
-                config, seeds=seeds, seed=info.seed, settings=info.settings,
-                resume=resume, on_ready=notice.ready, on_point=on_point,
-                on_checkpoint=checkpoints.save, should_stop=lambda: stop.signal is not None,
-                started=STARTED, check_memory=False)  # checked above, before the run directory
-        finally:
-            notice.close()
-            try:  # still under our handlers: a second signal during the last save stops at once
-                try:
-                    tensorboard.close()
-                finally:  # waits for the checkpoint under way, even if a signal came first
-                    checkpoints.close()
-            finally:
-                for s, handler in previous.items():
-                    signal.signal(s, handler)
-    except run_checkpoint.CheckpointWriteError as error:  # e.g. a full disk
-        print(f"error: {error}; {_kept(out)}", file=sys.stderr, flush=True)
-        return 1
-    except jax.errors.JaxRuntimeError as error:
-        if "RESOURCE_EXHAUSTED" not in str(error):
-            raise
-        print(f"error: out of memory on {jax.local_devices()[0].platform} "
-              f"({_first_line(error)}): lower --buffer-size or --seeds; {_left(out, resume)}",
+        try:  # the memory was checked above, before the run directory was made
+            result, code = train_in_dir(
+                out, config, info.preset, seeds=seeds, seed=info.seed, settings=info.settings,
+                resume=resume, stop=stop, runs=info.runs, started=STARTED,
+                tracked=dict(dataclasses.asdict(config), **info.to_json()))
+        finally:  # after the last save: a second signal during it stops at once
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+    except RunFailed as error:
+        print(f"error: {error}; {after_failure(error, out, new=resume is None)}",
               file=sys.stderr, flush=True)
         return 1
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
-        stop.leave_now(error, _kept(out))
-    write_results(out, config, info.preset, result)
-    code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
-    if wandb_run is not None:
-        wandb_run.finish(dict(result.summary, preset=info.preset), code)
+        stop.leave_now(error, kept(out))
     s = result.summary
     if result.status == FINISHED:
         print(f"compile {s['compile_s']:.1f} s, run {s['run_s']:.1f} s; {_outcome(s)}; wrote "
@@ -266,32 +232,8 @@ def main(argv=None) -> int:
         print(f"{result.message}; checkpoint saved: continue with --resume {out}",
               file=sys.stderr, flush=True)
         return code
-    print(f"error: {result.message}; {_kept(out)}", file=sys.stderr, flush=True)
+    print(f"error: {result.message}; {kept(out)}", file=sys.stderr, flush=True)
     return 1
-
-
-def _first_line(error: Exception) -> str:
-    """The first line of an XLA error, without its status code: "Out of memory while trying
-    to allocate 5.26GiB with allocator GPU_0_bfc on device 0"."""
-    line = str(error).strip().splitlines()[0]
-    return line.split(": ", 1)[-1].split(" [", 1)[0][:200]
-
-
-def _left(out: str, resume) -> str:
-    """`_kept`, after removing a new run's directory that holds no checkpoint (nothing in it
-    is worth keeping, and its name is free again for a rerun)."""
-    if resume is None and not run_checkpoint.saved_steps(out):
-        shutil.rmtree(out, ignore_errors=True)
-        return f"{out} removed"
-    return _kept(out)
-
-
-def _kept(out: str) -> str:
-    """Which checkpoint a run that ended early leaves to resume from."""
-    steps = run_checkpoint.saved_steps(out)
-    if not steps:
-        return "no checkpoint was written"
-    return f"the last checkpoint written (step {steps[-1]}) is kept: continue with --resume {out}"
 
 
 if __name__ == "__main__":

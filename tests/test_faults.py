@@ -37,6 +37,7 @@ from sac_jax import run as training
 from sac_jax.position import Position
 from scripts import evaluate as evaluate_script
 from scripts import render as render_script
+from scripts import sweep as sweep_script
 from scripts import train as train_script
 from tests.saved_runs import (SMALL_RUN, checkpoint_header, copied_run, damage_checkpoint,
                               fails_in_one_line, newest_checkpoint, two_checkpoints)
@@ -178,6 +179,30 @@ def test_a_checkpoint_that_cannot_be_written_ends_the_run_in_one_line(tmp_path, 
                    f"2000) is kept: continue with --resume {out}"), err
     assert os.listdir(run_checkpoint.directory(out)) == ["2000"]
     run_checkpoint.load_checkpoint(out)  # whole: it loads
+
+
+def test_a_checkpoint_that_cannot_be_written_ends_a_sweep_in_one_line(tmp_path, capsys,
+                                                                      monkeypatch):
+    """As for scripts/train.py (it had ended with a traceback); the line names the program
+    and the sweep directory to resume."""
+    save = checkpoint.save
+
+    def full_disk(directory, step, tree, meta):
+        if step > 2000:
+            raise OSError(28, "No space left on device")
+        save(directory, step, tree, meta)
+
+    monkeypatch.setattr(checkpoint, "save", full_disk)
+    monkeypatch.setattr(run_checkpoint, "MIN_INTERVAL_S", 0.0)
+    out = str(tmp_path / "sweep")
+    assert sweep_script.main(SMALL_RUN + ["--set", "actor_lr=1e-3,3e-4", "--out", out]) == 1
+    err = capsys.readouterr().err.strip()
+    program = os.path.join(out, "programs", "0")
+    assert err == (f"error: program 1: checkpoint of step 3000 in "
+                   f"{run_checkpoint.directory(program)} could not be written (No space left on "
+                   "device); the last checkpoint written (step 2000) is kept: continue with "
+                   f"--resume {out}"), err
+    assert os.listdir(run_checkpoint.directory(program)) == ["2000"]
 
 
 def test_the_background_writer_reraises_a_failed_write_in_one_line(run, tmp_path):

@@ -56,7 +56,7 @@ def test_a_run_that_cannot_fit_is_refused_in_one_line_and_writes_nothing(
                       "without a copy), 24.0 GB available on cpu: lower --buffer-size or --seeds")
     assert not os.path.exists(out) and os.listdir(tmp_path) == []
     # an explicit override passes the check (stopped here before anything is compiled)
-    monkeypatch.setattr(train_script, "run_training", lambda *a, **k: (_ for _ in ()).throw(
+    monkeypatch.setattr(run, "run_training", lambda *a, **k: (_ for _ in ()).throw(
         SystemExit("reached the run")))
     with pytest.raises(SystemExit, match="reached the run"):
         train_script.main(HUGE + ["--out", out, "--no-memory-check"])

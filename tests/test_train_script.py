@@ -21,6 +21,7 @@ import jax
 import envs
 import sac_jax
 from sac_jax import run_checkpoint, tracking, wandb_records
+from sac_jax.cli import progress_line
 from scripts import train as train_script
 from tests.killed_run import tensorboard_steps, wandb_steps
 from tests.saved_runs import SMALL_RUN as RUN
@@ -94,7 +95,7 @@ def test_flags_override_the_chosen_preset():
 def test_progress_line_shows_undefined_values_as_a_dash():
     point = {"eval_return": 1000.0, "train_return": math.nan, "alpha": 0.0161,
              "critic_loss": 2.73, "actor_loss": -41.6}
-    line = train_script.progress_line(20480, point, 1, 26.0)
+    line = progress_line(20480, point, 1, 26.0)
     assert "eval    1000.0" in line and "train         -" in line and "alpha 0.016" in line
 
 
@@ -102,29 +103,29 @@ def test_progress_line_counts_the_seeds_solved_and_stopped():
     point = {"eval_return": 980.0, "delivered_return": 990.0, "train_return": 900.0,
              "alpha": 0.02, "critic_loss": 2.0, "actor_loss": -40.0, "solved": 0.75,
              "stopped": 0.0}
-    line = train_script.progress_line(7168, point, 256, 4.3)
+    line = progress_line(7168, point, 256, 4.3)
     assert line.endswith(" s | solved 192/256") and "delivered     990.0" in line
     point.update(stopped=0.5)
-    assert train_script.progress_line(7168, point, 256, 4.3).endswith(
+    assert progress_line(7168, point, 256, 4.3).endswith(
         " s | solved 192/256, stopped 128")
-    assert train_script.progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1,
+    assert progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1,
                                        1.7).endswith(" s | solved 1/1, stopped 1")
     del point["solved"]  # a task without a solved return
-    assert "solved" not in train_script.progress_line(7168, point, 1, 1.7)
+    assert "solved" not in progress_line(7168, point, 1, 1.7)
 
 
 def test_progress_line_tells_the_time_left_at_the_speed_so_far():
     point = {"eval_return": 50.0}
     # a quarter of 4,096,000 steps in 30 s: three quarters, 90 s, to go
-    assert train_script.progress_line(1_024_000, point, 1, 30.0, 4_096_000).endswith(
+    assert progress_line(1_024_000, point, 1, 30.0, 4_096_000).endswith(
         " 30.0 s, 90 s left")
-    assert train_script.progress_line(8192, point, 16, 30.0, 4_096_000).endswith(" 4.2 h left")
-    assert train_script.progress_line(409_600, point, 1, 40.0, 4_096_000).endswith(" 6 min left")
-    assert "left" not in train_script.progress_line(4_096_000, point, 1, 120.0, 4_096_000)
-    assert "left" not in train_script.progress_line(8192, point, 1, 30.0)
-    solved = train_script.progress_line(7168, dict(point, solved=0.0), 1, 2.0, 20480)
+    assert progress_line(8192, point, 16, 30.0, 4_096_000).endswith(" 4.2 h left")
+    assert progress_line(409_600, point, 1, 40.0, 4_096_000).endswith(" 6 min left")
+    assert "left" not in progress_line(4_096_000, point, 1, 120.0, 4_096_000)
+    assert "left" not in progress_line(8192, point, 1, 30.0)
+    solved = progress_line(7168, dict(point, solved=0.0), 1, 2.0, 20480)
     assert solved.endswith(" 2.0 s, 4 s left | solved 0/1")
-    ended = train_script.progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1, 2.0, 20480)
+    ended = progress_line(7168, dict(point, solved=1.0, stopped=1.0), 1, 2.0, 20480)
     assert ended.endswith(" 2.0 s | solved 1/1, stopped 1")  # the run ends here
 
 
