@@ -115,6 +115,12 @@ def create(out: str, config: SACConfig, preset: str, seeds: int, seed: int,
     create_directory(out, {"config.json": dataclasses.asdict(config), "run.json": info.to_json()})
 
 
+def stored_config(fields: dict) -> SACConfig:
+    """The `SACConfig` a run or sweep directory's JSON `fields` describe; runs written before
+    `stop_measurements` (run_checkpoint.LAYOUT < 3) stopped on one measurement."""
+    return SACConfig(**dict({"stop_measurements": 1}, **fields))
+
+
 def read_config(run_dir: str) -> Tuple[SACConfig, RunInfo]:
     """(config, run info) of an existing run directory; `RunDirError` if either is
     unreadable."""
@@ -122,10 +128,7 @@ def read_config(run_dir: str) -> Tuple[SACConfig, RunInfo]:
         raise RunDirError(f"{run_dir}: no such run directory")
     try:
         with open(os.path.join(run_dir, "config.json")) as f:
-            fields = json.load(f)
-        # runs written before `stop_measurements` (run_checkpoint.LAYOUT < 3) stopped on one
-        fields.setdefault("stop_measurements", 1)
-        config = SACConfig(**fields)
+            config = stored_config(json.load(f))
         with open(os.path.join(run_dir, "run.json")) as f:
             info = json.load(f)
         settings = info.get("settings")

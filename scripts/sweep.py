@@ -223,7 +223,7 @@ def _read_sweep(out: str) -> dict:
     try:
         with open(os.path.join(out, "sweep.json")) as f:
             sweep = json.load(f)
-        sweep["config"] = SACConfig(**sweep["config"])
+        sweep["config"] = run_dir.stored_config(sweep["config"])
         return sweep
     except (OSError, ValueError, TypeError, KeyError) as error:
         raise run_dir.RunDirError(

@@ -1,12 +1,22 @@
 """sac_jax.run_dir and the writers beside it: write_file leaves a file whole or absent, and no
-temporary file; the TensorBoard writer imports no torch."""
+temporary file; a stored config from before `stop_measurements` stops on one measurement; the
+TensorBoard writer imports no torch."""
 
+import dataclasses
 import os
 
 import pytest
 
+import sac_jax
 from sac_jax import run_dir
 from tests.subprocess_json import run_json
+
+
+def test_a_stored_config_from_before_stop_measurements_stops_on_one():
+    fields = dataclasses.asdict(sac_jax.PRESETS["fast"])
+    assert run_dir.stored_config(fields) == sac_jax.PRESETS["fast"]  # 2, as stored
+    del fields["stop_measurements"]  # a run or sweep directory written before the field
+    assert run_dir.stored_config(fields).stop_measurements == 1
 
 
 def test_tensorboard_writer_leaves_torch_unimported(tmp_path):
