@@ -34,9 +34,11 @@ class UnreadableLog(ValueError):
 
 def records(path: str) -> Iterator[bytes]:
     """The serialized records of the transaction log at `path`, in order, up to the first
-    chunk that is cut short or damaged."""
+    chunk that is cut short or damaged (none for a log cut short within its file header)."""
     with open(path, "rb") as f:
         data = f.read()
+    if len(data) < _FILE_HEADER.size and b":W&B".startswith(data[:4]):
+        return
     if len(data) < _FILE_HEADER.size or _FILE_HEADER.unpack_from(data)[0] != b":W&B":
         raise UnreadableLog(f"{path}: not a W&B transaction log")
     at, pending = _FILE_HEADER.size, b""
