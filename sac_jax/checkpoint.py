@@ -36,6 +36,8 @@ from typing import Any, Callable, List, Optional, Tuple, Union
 import jax
 import numpy as np
 
+from sac_jax.whole_file import write_file
+
 FORMAT = 4
 """Format 4 is this module's (orbax); formats 2 and 3 were single msgpack files of earlier
 sac-jax (`sac_jax.legacy_checkpoint` reads them)."""
@@ -121,9 +123,7 @@ def save(directory: str, step: int, tree: Any, meta: dict) -> None:
             state=ocp.args.StandardSave(arrays),
             meta=ocp.args.JsonSave({"format": FORMAT, "meta": meta, "leaves": records})))
     step_dir = os.path.join(directory, str(step))
-    with open(os.path.join(step_dir, SIZES + ".tmp"), "w") as f:
-        json.dump(_state_sizes(step_dir), f)
-    os.replace(os.path.join(step_dir, SIZES + ".tmp"), os.path.join(step_dir, SIZES))
+    write_file(os.path.join(step_dir, SIZES), json.dumps(_state_sizes(step_dir)).encode())
 
 
 def _state_sizes(step_dir: str) -> dict:

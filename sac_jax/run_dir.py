@@ -32,6 +32,7 @@ import jax
 from sac_jax import hyperparams
 from sac_jax.config import SACConfig
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
+from sac_jax.whole_file import write_file
 
 
 class RunDirError(ValueError):
@@ -56,24 +57,6 @@ class RunInfo:
     def to_json(self) -> dict:
         info = {"preset": self.preset, "seeds": self.seeds, "seed": self.seed}
         return dict(info, settings=self.settings) if self.settings else info
-
-
-def write_file(path: str, data: bytes, replace: bool = True) -> None:
-    """Writes `data` to `path` under a temporary name in the same directory, then renames it:
-    whole or absent. Without `replace` an existing `path` is kept (FileExistsError, even if it
-    appeared during the write). On an OSError (a missing or unwritable directory, a full disk)
-    no temporary file is left."""
-    tmp = f"{path}.tmp-{os.getpid()}"
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-        if replace:
-            os.replace(tmp, path)
-        else:
-            os.link(tmp, path)  # fails if `path` exists: never overwrites
-    finally:
-        if os.path.lexists(tmp):
-            os.remove(tmp)
 
 
 def write_json(path: str, obj) -> None:
