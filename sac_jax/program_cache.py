@@ -31,8 +31,12 @@ from typing import Any, Callable, Optional, Sequence
 import jax
 from jax import export
 
-PACKAGES = ("jax", "jaxlib", "flax", "optax", "distrax", "mujoco", "mujoco-mjx")
-"""Installed packages whose code the traced programs contain."""
+from sac_jax.whole_file import write_file
+
+PACKAGES = ("jax", "jaxlib", "flax", "optax", "distrax", "mujoco", "mujoco-mjx", "brax",
+            "playground")
+"""Installed packages whose code (and, for `brax/` and `playground/` tasks, models) the traced
+programs contain."""
 SOURCE_PACKAGES = ("sac_jax", "envs")
 """Packages whose source files (and assets) are hashed into every key."""
 
@@ -96,15 +100,8 @@ def _read(path: str) -> Optional[export.Exported]:
 
 def _write(path: str, exported: export.Exported) -> None:
     os.makedirs(os.path.dirname(path), exist_ok=True)
-    tmp = f"{path}.tmp-{os.getpid()}"
-    try:
-        payload = bytes(exported.serialize())
-        with open(tmp, "wb") as f:
-            f.write(MAGIC + hashlib.sha256(payload).digest() + payload)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    payload = bytes(exported.serialize())
+    write_file(path, MAGIC + hashlib.sha256(payload).digest() + payload)
 
 
 def cached_lower(fn: Callable, name: str, args: Sequence[Any], result: Any, directory: str,
