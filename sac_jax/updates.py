@@ -99,17 +99,23 @@ def update_critic(agent: Agent, state: SACState, batch: Transition,
             {"critic_loss": loss, **metrics})
 
 
+def _sampled_q(agent: Agent, state: SACState, actor_params, obs: jax.Array,
+               noise: jax.Array) -> Tuple[jax.Array, jax.Array]:
+    """(log pi(a~|s) (B,), min_i Q_i(s, a~) (B,)) for a~ = f(eps; s) drawn by `actor_params`
+    and the online critics; obs (B, O) raw, eps (B, A)."""
+    action, log_prob = agent.sample_action(actor_params, obs, noise)
+    q = agent.critic.apply(state.critic_params, normalize(state.actor_params, obs), action)
+    return log_prob, jnp.min(q, axis=0)
+
+
 def actor_objective(agent: Agent, state: SACState, obs: jax.Array,
                     key_or_noise: jax.Array) -> Callable:
     """params -> (J_pi(params), log pi(a~|s) (B,)), J_pi = mean(alpha log pi(a~|s) -
     min_i Q_i(s, a~)), a~ = f_params(eps; s), obs (B, O), eps (B, A)."""
     noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
 
-    normalized = normalize(state.actor_params, obs)
-
     def objective(params):
-        action, log_prob = agent.sample_action(params, obs, noise)
-        q_min = jnp.min(agent.critic.apply(state.critic_params, normalized, action), axis=0)
+        log_prob, q_min = _sampled_q(agent, state, params, obs, noise)
         return losses.actor_loss(log_prob, q_min, state.alpha), log_prob
 
     return objective
@@ -146,10 +152,9 @@ def value_objective(agent: Agent, state: SACState, obs: jax.Array,
     """params -> J_V(params) (see `losses.value_loss`), target min_i Q_i(s, a~) -
     alpha log pi(a~|s) with a~ = f(eps; s), obs (B, O), eps (B, A)."""
     noise = as_noise(key_or_noise, (obs.shape[0], agent.action_size))
-    action, log_prob = agent.sample_action(state.actor_params, obs, noise)
-    normalized = normalize(state.actor_params, obs)
-    q_min = jnp.min(agent.critic.apply(state.critic_params, normalized, action), axis=0)
+    log_prob, q_min = _sampled_q(agent, state, state.actor_params, obs, noise)
     target = jax.lax.stop_gradient(q_min - state.alpha * log_prob)
+    normalized = normalize(state.actor_params, obs)
     return lambda params: losses.value_loss(agent.value.apply(params, normalized), target,
                                             agent.hyperparams.loss_coef)
 
