@@ -228,9 +228,13 @@ def make_train_parts(config: SACConfig,
     watched = non_finite_fields(config)
     nan = jnp.float32(jnp.nan)
 
-    # The key chain: init splits (k_sac, k_env, k_run); each iteration splits the run key into
-    # (key, k_act, k_random, k_learn); each evaluation splits (key, k_eval, k_confirm).
-    # `record_draws` follows the same chain.
+    # The key chain, which `record_draws` follows through the same three splits: init splits
+    # (k_sac, k_env, k_run); each iteration splits the run key into (key, k_act, k_random,
+    # k_learn); each evaluation splits (key, k_eval, k_confirm).
+    init_keys = lambda key: jax.random.split(key, 3)
+    iteration_keys = lambda key: jax.random.split(key, 4)
+    point_keys = lambda key: jax.random.split(key, 3)
+
     def evaluates_after(iterations_done: jax.Array) -> jax.Array:
         after_prefill = iterations_done - prefill
         return (after_prefill > 0) & (after_prefill % period == 0)
@@ -239,7 +243,7 @@ def make_train_parts(config: SACConfig,
     # hyperparameters (`Agent.with_hyperparams`).
     def evaluate_period(agent: Agent, runner: RunnerState) -> RunnerState:
         index = (runner.iteration - prefill) // period - 1
-        key, k_eval, k_confirm = jax.random.split(runner.key, 3)
+        key, k_eval, k_confirm = point_keys(runner.key)
         out = {name: total / count for name, (total, count) in runner.sums.items()}
         out["env_steps"] = config.learning_starts + (index + 1) * config.eval_every
         with jax.named_scope("evaluate"):
@@ -262,7 +266,7 @@ def make_train_parts(config: SACConfig,
 
     def iteration(agent: Agent, runner: RunnerState) -> RunnerState:
         learning = runner.iteration >= prefill
-        key, k_act, k_random, k_learn = jax.random.split(runner.key, 4)
+        key, k_act, k_random, k_learn = iteration_keys(runner.key)
         random_action, action_noise = source.acting(k_act, k_random, runner.iteration)
         obs = runner.env.env_state.obs
         with jax.named_scope("act"):
@@ -320,20 +324,20 @@ def make_train_parts(config: SACConfig,
 
     def record_draws(key: jax.Array) -> Draws:
         def one(key, i):
-            key, k_act, k_random, k_learn = jax.random.split(key, 4)
+            key, k_act, k_random, k_learn = iteration_keys(key)
             size = jnp.minimum((i + 1) * n, config.buffer_size)  # after this iteration's add
             index, noise_keys = keys.learning(k_learn, size, i)
             draws = Draws(*keys.acting(k_act, k_random, i), batch_index=index,
                           update_noise=jax.vmap(lambda k: sample_noise(agent, k, batch_size))(
                               noise_keys))
-            key = jax.lax.cond(evaluates_after(i + 1), lambda k: jax.random.split(k, 3)[0],
+            key = jax.lax.cond(evaluates_after(i + 1), lambda k: point_keys(k)[0],
                                lambda k: k, key)
             return key, draws
 
-        return jax.lax.scan(one, jax.random.split(key, 3)[2], jnp.arange(config.run_iterations))[1]
+        return jax.lax.scan(one, init_keys(key)[2], jnp.arange(config.run_iterations))[1]
 
     def init(key: jax.Array, hyperparams: Optional[Dict[str, jax.Array]] = None) -> RunnerState:
-        k_sac, k_env, k_run = jax.random.split(key, 3)
+        k_sac, k_env, k_run = init_keys(key)
         env_state = vec.reset(k_env)
         example = Transition(obs=env_state.env_state.obs[0],
                              action=jnp.zeros(agent.action_size, jnp.float32),
