@@ -104,6 +104,17 @@ def stored_config(fields: dict) -> SACConfig:
     return SACConfig(**dict({"stop_measurements": 1}, **fields))
 
 
+def results_written(run_dir: str) -> bool:
+    """Whether the run directory holds the result files of a finished run (its summary.json
+    says "finished", `sac_jax.run.FINISHED`); a run killed after its last checkpoint has none
+    yet."""
+    try:
+        with open(os.path.join(run_dir, "summary.json")) as f:
+            return json.load(f).get("status") == "finished"
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def read_config(run_dir: str) -> Tuple[SACConfig, RunInfo]:
     """(config, run info) of an existing run directory; `RunDirError` if either is
     unreadable."""

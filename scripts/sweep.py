@@ -58,7 +58,7 @@ from sac_jax.cli import (EXIT_CODES, PresetName, RunFailed, StopRequest,  # noqa
                          parse_with_preset, positive, prng_seed, run_main, train_in_dir)
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy  # noqa: E402
+from sac_jax.run import INTERRUPTED, DeviceBusy  # noqa: E402
 
 LOSSES = ("critic_loss", "actor_loss", "alpha_loss", "value_loss", "alpha")
 
@@ -243,10 +243,8 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
     path = _program_dir(out, i)
     seeds, runs = sweep["seeds"], sweep["seeds"] * len(program.indices)
     resume = None
-    if os.path.exists(os.path.join(path, "summary.json")):
-        with open(os.path.join(path, "summary.json")) as f:
-            if json.load(f).get("status") == FINISHED:
-                return None
+    if run_dir.results_written(path):
+        return None
     if run_checkpoint.saved_steps(path):
         _, _, state, position = run_checkpoint.load_checkpoint(path)
         resume = (state, position)

@@ -16,7 +16,7 @@ confirmed actor (`sac_jax.selection`), which `sac_jax.load_policy` and scripts/e
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
 summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s after the first,
 stops at once, keeping the last checkpoint); `--resume` continues it to the same result as an
-uninterrupted run. A non-finite parameter stops the run (exit 1) and keeps the last good
+uninterrupted run (a run killed after its last checkpoint gets its result files). A non-finite parameter stops the run (exit 1) and keeps the last good
 checkpoint; so does a checkpoint that cannot be written (e.g. a full disk). A damaged checkpoint
 is refused (exit 2), naming an intact earlier one to resume from with `--resume-step`. Bad
 input, or a run that cannot fit in memory, ends with one line on stderr and exit 2, before
@@ -153,8 +153,7 @@ def _resumed_run(args: TrainArgs):
         tracking.check_available()
     fits = _memory_line(args, config, info.runs)
     config, info, state, position = run_checkpoint.load_checkpoint(args.resume, args.resume_step)
-    if int(state.iteration) >= config.run_iterations or (
-            config.stop_when_solved and all(state.stopped)):
+    if run_dir.results_written(args.resume):  # else a finished state gets its result files
         raise ValueError(f"--resume={args.resume}: this run already finished")
     return config, info, args.resume, (state, position), fits
 

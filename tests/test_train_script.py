@@ -311,6 +311,17 @@ def test_a_resumed_run_ends_exactly_like_the_uninterrupted_one(runs, capsys):
     assert train_script.main(["--resume", runs["whole"]]) == 2  # finished: nothing to do
 
 
+def test_a_run_killed_after_its_last_checkpoint_gets_its_result_files_on_resume(runs, tmp_path):
+    killed = str(tmp_path / "killed")
+    shutil.copytree(runs["whole"], killed)
+    for name in ("summary.json", "metrics.csv", "curves.png"):
+        os.remove(os.path.join(killed, name))
+    assert train_script.main(["--resume", killed]) == 0
+    assert _metrics(killed) == _metrics(runs["whole"])
+    assert json.load(open(os.path.join(killed, "summary.json")))["status"] == "finished"
+    assert os.path.exists(os.path.join(killed, "curves.png"))
+
+
 def test_a_non_finite_state_stops_the_run_and_keeps_the_last_good_checkpoint(runs, capsys):
     diverging = str(runs["root"] / "diverging")
     shutil.copytree(runs["interrupted"], diverging)
