@@ -263,11 +263,7 @@ def write_results(out: str, config, preset: str, result: RunResult) -> None:
 
 class RunFailed(Exception):
     """What a run cannot go on from, as one line: a checkpoint that cannot be written (e.g. a
-    full disk), or device memory exhausted (`out_of_memory`)."""
-
-    def __init__(self, line: str, out_of_memory: bool = False):
-        super().__init__(line)
-        self.out_of_memory = out_of_memory
+    full disk), W&B failing (no login, no network), or device memory exhausted."""
 
 
 def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settings, resume,
@@ -289,12 +285,16 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
     history = evaluation_points(config, resume[0]) if resume else []  # the points done
     tensorboard = metric_writers.TensorBoard(out, history)
     wandb_run = tracking.follow(out, tracked, history)
-    writers = [w for w in (tensorboard, wandb_run) if w is not None]
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, runs, elapsed, config.run_steps), flush=True)
-        for writer in writers:
-            writer.add_point(step, means, eval_returns)
+        tensorboard.add_point(step, means, eval_returns)
+        if wandb_run is not None:
+            try:  # raises what failed on its thread since the last point
+                wandb_run.add_point(step, means, eval_returns)
+            except Exception as error:
+                why = (str(error).strip().splitlines() or [type(error).__name__])[0][:200]
+                raise RunFailed(f"W&B: {why}") from None
 
     checkpoints = run_checkpoint.CheckpointWriter(out)
     notice = stop.notice = CompileNotice()
@@ -317,8 +317,7 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
         if "RESOURCE_EXHAUSTED" not in str(error):
             raise
         raise RunFailed(f"out of memory on {jax.local_devices()[0].platform} "
-                        f"({first_line(error)}): lower --buffer-size or --seeds",
-                        out_of_memory=True) from None
+                        f"({first_line(error)}): lower --buffer-size or --seeds") from None
     write_results(out, config, preset, result)
     code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
     if wandb_run is not None:
@@ -343,10 +342,10 @@ def kept(out: str, resume: Optional[str] = None) -> str:
             f"{resume or out}")
 
 
-def after_failure(error: RunFailed, out: str, new: bool, resume: Optional[str] = None) -> str:
-    """`kept`, after an out-of-memory failure of a `new` run whose directory holds no
-    checkpoint has removed it (nothing in it is worth keeping, and its name is free again)."""
-    if error.out_of_memory and new and not run_checkpoint.saved_steps(out):
+def after_failure(out: str, new: bool, resume: Optional[str] = None) -> str:
+    """`kept`, after a `RunFailed` of a `new` run whose directory holds no checkpoint has
+    removed it (nothing in it is worth keeping, and its name is free again)."""
+    if new and not run_checkpoint.saved_steps(out):
         shutil.rmtree(out, ignore_errors=True)
         return f"{out} removed"
     return kept(out, resume)

@@ -273,7 +273,7 @@ def _run_program(i: int, program: Program, sweep: dict, out: str, stop: StopRequ
             stop_on_non_finite=False)[0]
     except RunFailed as error:  # the sweep, not the program, is what a user resumes
         raise RunFailed(f"program {i + 1}: {error}; "
-                        f"{after_failure(error, path, resume is None, out)}") from None
+                        f"{after_failure(path, resume is None, out)}") from None
 
 
 def _span(values) -> str:

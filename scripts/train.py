@@ -217,7 +217,7 @@ def main(argv=None) -> int:
             for s, handler in previous.items():
                 signal.signal(s, handler)
     except RunFailed as error:
-        print(f"error: {error}; {after_failure(error, out, new=resume is None)}",
+        print(f"error: {error}; {after_failure(out, new=resume is None)}",
               file=sys.stderr, flush=True)
         return 1
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent

@@ -356,6 +356,26 @@ def test_track_without_wandb_ends_with_one_line_and_writes_nothing(tmp_path, cap
     assert os.listdir(tmp_path) == []
 
 
+def test_w_and_b_failing_ends_the_run_in_one_line_keeping_its_checkpoint(tmp_path, capsys,
+                                                                         offline_wandb,
+                                                                         monkeypatch):
+    """W&B's start failing on its thread (as online without a login does) ended the run with
+    a traceback; it is one line, exit 1, at the first point: the new run's directory, which
+    holds no checkpoint yet, is removed."""
+    pytest.importorskip("wandb")
+
+    def no_login(self, *args):
+        raise RuntimeError("api_key not configured (no-tty). call wandb.login(key=...)")
+
+    monkeypatch.setattr(tracking.WandbRun, "_start", no_login)
+    out = str(tmp_path / "tracked")
+    assert train_script.main(RUN + ["--out", out, "--track"]) == 1
+    err = capsys.readouterr().err
+    assert err == ("error: W&B: api_key not configured (no-tty). call wandb.login(key=...); "
+                   f"{out} removed\n"), err
+    assert not os.path.exists(out)
+
+
 def test_a_resumed_tracked_run_logs_the_points_w_and_b_holds_once(tmp_path, offline_wandb):
     """Stopped by SIGINT at its first point, a tracked run ends its W&B run cleanly, with that
     point logged; its checkpoint holds the point too, and the resumed run, which starts from
