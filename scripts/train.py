@@ -16,11 +16,12 @@ confirmed actor (`sac_jax.selection`), which `sac_jax.load_policy` and scripts/e
 Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a checkpoint and the
 summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s after the first,
 stops at once, keeping the last checkpoint); `--resume` continues it to the same result as an
-uninterrupted run (a run killed after its last checkpoint gets its result files). A non-finite parameter stops the run (exit 1) and keeps the last good
-checkpoint; so does a checkpoint that cannot be written (e.g. a full disk). A damaged checkpoint
-is refused (exit 2), naming an intact earlier one to resume from with `--resume-step`. Bad
-input, or a run that cannot fit in memory, ends with one line on stderr and exit 2, before
-anything is written.
+uninterrupted run (a run killed after its last checkpoint gets its result files). A non-finite
+parameter stops the run (exit 1) and keeps the last good checkpoint; so does a checkpoint that
+cannot be written (e.g. a full disk), or W&B failing (with --track). A damaged checkpoint is
+refused (exit 2), naming an intact earlier one to resume from with `--resume-step`. Bad input,
+or a run that cannot fit in memory, ends with one line on stderr and exit 2, before anything
+is written.
 """
 
 from __future__ import annotations
