@@ -96,8 +96,8 @@ class EvalPoints:
 
     def evaluate(self, agent: Agent, actor, delivered: selection.Delivered,
                  pending: Optional[Pending], k_eval: jax.Array, k_confirm: jax.Array,
-                 index: jax.Array, env_steps: jax.Array) -> Tuple[selection.Delivered, List[jax.Array],
-                                                Optional[Pending]]:
+                 index: jax.Array, env_steps: jax.Array
+                 ) -> Tuple[selection.Delivered, List[jax.Array], Optional[Pending]]:
         """Point `index` (of `config.num_evals`) after `env_steps` steps, with the learner's
         `actor`: (delivered actor after the point, [evaluation return, confirmed return, kept
         actor's return], pending). Without `eval_alongside` the point's episodes run to their

@@ -19,10 +19,10 @@ is reported and the others train on.
 Writes the sweep directory (default runs/sweep-<preset>-<time>): sweep.json (what was asked),
 programs/<i>/ (a run directory per program, as scripts/train.py writes; `sac_jax.load_policy`
 loads its runs, setting-major), results.csv (one row per setting and seed: its values, the
-delivered actor's confirmed return, the step from which it stayed solved, the last evaluation and the last
-period's losses), sweep.png (delivered return against each swept field, and each setting's
-learning curve), and prints the best setting (highest mean delivered return over its seeds,
-then earliest mean solved step) as a ready scripts/train.py command line. With `--track`, each
+delivered actor's confirmed return, the step from which it stayed solved, the last evaluation
+and the last period's losses), sweep.png (delivered return against each swept field, and each
+setting's learning curve), and prints the best setting (highest mean delivered return over its
+seeds, then earliest mean solved step) as a ready scripts/train.py command line. With `--track`, each
 program directory is also a W&B run of its own (id in its wandb.json), as scripts/train.py's.
 Ctrl-C or SIGTERM stops after the current chunk, saves, and exits with 130 or 143; `--resume`
 continues the sweep. Bad input (an unknown or non-numeric field, an empty or invalid value, a
@@ -419,7 +419,7 @@ def main(argv=None) -> int:
                 return EXIT_CODES[stop.signal]
     except (KeyboardInterrupt, DeviceBusy) as error:  # every file is whole or absent
         stop.leave_now(error, f"continue with --resume {out}")
-    except RunFailed as error:  # a checkpoint that cannot be written, memory exhausted
+    except RunFailed as error:  # a checkpoint that cannot be written, W&B, memory exhausted
         print(f"error: {error}", file=sys.stderr, flush=True)
         return 1
     except ValueError as error:  # a program's checkpoint that cannot be read back
