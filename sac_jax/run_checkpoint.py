@@ -307,7 +307,7 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
     """(config, run info, training state, position) of the run directory's checkpoint of
     environment step `step` (default: the newest); `RunDirError` or its subclass
     `checkpoint.CheckpointError` says what is wrong. A damaged newest checkpoint is refused,
-    and the message names an intact earlier step, if any, to load explicitly. A run
+    and the message names an intact earlier step, if any, to continue from. A run
     directory of an earlier sac-jax (`legacy_checkpoint`) is read too; one whose state kept
     no delivered actor is refused unless `earlier`: then its state comes with `delivered`
     and `stopped` None."""
@@ -346,8 +346,8 @@ def load_checkpoint(run_dir: str, step: Optional[int] = None, earlier: bool = Fa
         if intact is None:
             raise
         raise checkpoint.CheckpointError(
-            f"{error}; the checkpoint of step {intact} before it is intact: load that step "
-            "explicitly (scripts/train.py --resume-step)") from None
+            f"{error}; the checkpoint of step {intact} before it is intact: continue from it "
+            f"with scripts/train.py --resume {run_dir} --resume-step {intact}") from None
     runner = _from_layout(runner, meta.get("layout", 1), config)
     return (config, info, _padded(runner, config.buffer_size),
             Position.from_json(meta["position"]))

@@ -65,8 +65,8 @@ def test_a_damaged_checkpoint_is_refused_naming_it_and_the_intact_step_before(
         run_checkpoint.load_checkpoint(damaged)
     text = str(error.value)
     assert text.startswith(f"checkpoint {where}: ") and "\n" not in text
-    assert text.endswith("the checkpoint of step 0 before it is intact: load that step "
-                         "explicitly (scripts/train.py --resume-step)")
+    assert text.endswith("the checkpoint of step 0 before it is intact: continue from it with "
+                         f"scripts/train.py --resume {damaged} --resume-step 0")
     with pytest.raises(checkpoint.CheckpointError, match=message):
         sac_jax.load_policy(damaged)
     _, _, first, _ = run_checkpoint.load_checkpoint(damaged, step=0)  # asked for: it loads
