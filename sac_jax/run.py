@@ -303,9 +303,10 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         memory.check(config, seeds)
     t0 = time.perf_counter()
     parts, init, chunk, sharding = compiled_program(config, seeds, tuple(values))
-    # before the state exists
+    # before the state exists; a checkpoint's copy counted where it fits, as the writer makes it
     temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate))
-    model = memory.need(config, seeds, temporaries=temporaries, process=process)
+    model = memory.need(config, seeds, temporaries=temporaries, process=process,
+                        available=memory.available()[0])
     if resume is None:
         keys = jax.random.split(jax.random.key(seed), seed_keys)
         if len(configs) > 1:  # every setting trains the same keys
