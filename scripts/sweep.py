@@ -22,8 +22,9 @@ loads its runs, setting-major), results.csv (one row per setting and seed: its v
 delivered actor's confirmed return, the step from which it stayed solved, the last evaluation
 and the last period's losses), sweep.png (delivered return against each swept field, and each
 setting's learning curve), and prints the best setting (highest mean delivered return over its
-seeds, then earliest mean solved step) as a ready scripts/train.py command line. With `--track`, each
-program directory is also a W&B run of its own (id in its wandb.json), as scripts/train.py's.
+seeds, then earliest mean solved step) as a ready scripts/train.py command line. With
+`--track`, each program directory is also a W&B run of its own (id in its wandb.json), as
+scripts/train.py's.
 Ctrl-C or SIGTERM stops after the current chunk, saves, and exits with 130 or 143; `--resume`
 continues the sweep. Bad input (an unknown or non-numeric field, an empty or invalid value, a
 program that cannot fit in memory) ends with one line on stderr and exit 2, nothing written.

@@ -83,7 +83,8 @@ def test_total_steps_must_reach_one_evaluation():
 
 
 def test_total_steps_must_fit_the_int32_step_count():
-    with pytest.raises(ValueError, match=r"SACConfig\.total_steps=2147483648: must be below 2\*\*31"):
+    with pytest.raises(ValueError,
+                       match=r"SACConfig\.total_steps=2147483648: must be below 2\*\*31"):
         SACConfig(total_steps=2 ** 31)
     assert SACConfig(total_steps=2 ** 31 - 1).total_steps == 2 ** 31 - 1
 
@@ -130,7 +131,8 @@ def test_stop_return_defaults_to_the_tasks_solved_return():
     config = SACConfig(env="Pendulum-v1", stop_when_solved=True)
     assert config.stop_at == envs.spec("Pendulum-v1").solved_return
     assert config.replace(stop_return=-100.0).stop_at == -100.0
-    with pytest.raises(ValueError, match=r"SACConfig.stop_return=nan: must be a finite number or None"):
+    with pytest.raises(ValueError,
+                       match=r"SACConfig.stop_return=nan: must be a finite number or None"):
         config.replace(stop_return=float("nan"))
 
 
