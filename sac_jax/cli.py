@@ -277,7 +277,8 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
     `time.perf_counter()` at the process's start (`run_training`'s). Returns the
     `RunResult` and its exit code: 0 finished, the signal's if `stop` stopped it, else 1.
     Raises `RunFailed` (exit 1), and KeyboardInterrupt or `sac_jax.run.DeviceBusy` as
-    `run_training` does; every file is whole or absent."""
+    `run_training` does; every file is whole or absent. W&B failing as it ends its record,
+    after the result files, is a one-line warning that leaves the exit code as it was."""
     import jax
 
     from sac_jax.run import FINISHED, INTERRUPTED, evaluation_points, run_training
@@ -293,8 +294,7 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
             try:  # raises what failed on its thread since the last point
                 wandb_run.add_point(step, means, eval_returns)
             except Exception as error:
-                why = (str(error).strip().splitlines() or [type(error).__name__])[0][:200]
-                raise RunFailed(f"W&B: {why}") from None
+                raise RunFailed(f"W&B: {_why(error)}") from None
 
     checkpoints = run_checkpoint.CheckpointWriter(out)
     notice = stop.notice = CompileNotice()
@@ -321,8 +321,17 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
     write_results(out, config, preset, result)
     code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
     if wandb_run is not None:
-        wandb_run.finish(dict(result.summary, preset=preset), code)
+        try:  # the run and its files are whole: W&B failing now costs only its own record
+            wandb_run.finish(dict(result.summary, preset=preset), code)
+        except Exception as error:
+            print(f"warning: W&B: {_why(error)}; the run's results are in {out}",
+                  file=sys.stderr, flush=True)
     return result, code
+
+
+def _why(error: Exception) -> str:
+    """The first line of what W&B raised (its type's name if it has no message)."""
+    return (str(error).strip().splitlines() or [type(error).__name__])[0][:200]
 
 
 def first_line(error: Exception) -> str:

@@ -20,7 +20,7 @@ import jax
 
 import envs
 import sac_jax
-from sac_jax import run_checkpoint, tracking, wandb_records
+from sac_jax import run_checkpoint, run_dir, tracking, wandb_records
 from sac_jax.cli import progress_line
 from scripts import train as train_script
 from tests.killed_run import tensorboard_steps, wandb_steps
@@ -374,6 +374,29 @@ def test_w_and_b_failing_ends_the_run_in_one_line_keeping_its_checkpoint(tmp_pat
     assert err == ("error: W&B: api_key not configured (no-tty). call wandb.login(key=...); "
                    f"{out} removed\n"), err
     assert not os.path.exists(out)
+
+
+def test_w_and_b_failing_as_it_ends_warns_in_one_line_and_keeps_the_finished_run(
+        tmp_path, capsys, offline_wandb, monkeypatch):
+    """W&B failing as it ends its record (its summary, the upload) came after the run and its
+    result files, and raised a traceback over a finished run: it is a one-line warning, and
+    the run's exit code and files stand."""
+    pytest.importorskip("wandb")
+
+    finish = tracking.WandbRun._finish
+
+    def upload_fails(self, summary, exit_code):  # after ending the record, as an upload would
+        finish(self, summary, exit_code)
+        raise RuntimeError("upload failed: network unreachable")
+
+    monkeypatch.setattr(tracking.WandbRun, "_finish", upload_fails)
+    out = str(tmp_path / "tracked")
+    assert train_script.main(RUN + ["--out", out, "--track"]) == 0
+    err = capsys.readouterr().err
+    assert err == ("warning: W&B: upload failed: network unreachable; the run's results are "
+                   f"in {out}\n"), err
+    assert run_dir.results_written(out)
+    assert json.load(open(os.path.join(out, "summary.json")))["status"] == "finished"
 
 
 def test_a_resumed_tracked_run_logs_the_points_w_and_b_holds_once(tmp_path, offline_wandb):
