@@ -33,6 +33,7 @@ from sac_jax import selection
 from sac_jax.agent import Agent
 from sac_jax.config import SACConfig
 from sac_jax.evaluation import Episodes, begin, initial_states, run_episodes, step_episodes
+from sac_jax.updates import mean_over_devices
 
 
 class Pending(flax.struct.PyTreeNode):
@@ -136,8 +137,7 @@ class EvalPoints:
     def _mean_return(self, returns: jax.Array) -> jax.Array:
         """Mean of deterministic returns (over all devices' episodes in a data-parallel run,
         so every device selects alike)."""
-        axis = self.config.data_parallel_axis
-        return jnp.mean(returns) if axis is None else jax.lax.pmean(jnp.mean(returns), axis)
+        return mean_over_devices(self.config, jnp.mean(returns))
 
     def _act_by_group(self, agent: Agent, actors):
         """Deterministic actions for rows in groups of E, group g acting with actor g

@@ -39,9 +39,10 @@ def as_noise(key_or_noise: jax.Array, shape: Tuple[int, ...]) -> jax.Array:
     return jax.random.normal(key_or_noise, shape)
 
 
-def _mean_over_devices(agent: Agent, tree):
-    """`tree` averaged over the data-parallel device axis; unchanged on one device."""
-    axis = agent.config.data_parallel_axis
+def mean_over_devices(config, tree):
+    """`tree` averaged over the data-parallel device axis `config.data_parallel_axis`;
+    unchanged on one device (axis None)."""
+    axis = config.data_parallel_axis
     return tree if axis is None else jax.lax.pmean(tree, axis)
 
 
@@ -52,7 +53,7 @@ def gradient_step(agent: Agent, optimizer: optax.GradientTransformation, objecti
     the data-parallel devices (unchanged on one device); params <- params + optimizer(g).
     Returns (params, opt_state, J, metrics, aux)."""
     (loss, aux), grads = jax.value_and_grad(objective, has_aux=True)(params)
-    loss, metrics, grads = _mean_over_devices(agent, (loss, summarize(aux), grads))
+    loss, metrics, grads = mean_over_devices(agent.config, (loss, summarize(aux), grads))
     updates, opt_state = optimizer.update(grads, opt_state, params)
     return optax.apply_updates(params, updates), opt_state, loss, metrics, aux
 
