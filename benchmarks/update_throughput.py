@@ -25,6 +25,7 @@ update_throughput-KIND: update_throughput-cpu; command, machine, versions, date)
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import os
 import platform
@@ -80,14 +81,25 @@ def jax_updates(config, data, updates):
     state = agent.init(jax.random.key(0))
     scanned = jax.jit(scanned)
     jax.block_until_ready(scanned(state, jax.random.key(1)))  # compile and warm up
+    calls = itertools.count()
+    return (update_flops(config, buffer), lambda: jax.block_until_ready(
+        scanned(state, jax.random.fold_in(jax.random.key(2), next(calls)))))
+
+
+def update_flops(config, buffer) -> float:
+    """FLOPs of one `sac_update` call on average over K = policy_frequency calls: the critic
+    step, and the actor block's K actor (and temperature) steps once in K calls, so one actor
+    step per call. That is one update of the same config with K = 1, whose cost XLA counts
+    straight: of K > 1 it would count the `lax.cond` around the actor block as if it ran every
+    call and the block's `lax.scan` body once, not K times (XLA's cost analysis)."""
+    config = dataclasses.replace(config, policy_frequency=1)
+    agent = sac_jax.make_agent(config, OBS, ACT, -3.0, 3.0)
     single = jax.jit(sac_jax.sac_update).lower(
-        agent, state, rb.sample(buffer, jax.random.key(0), config.batch_size),
-        jax.random.key(0)).compile()
+        agent, agent.init(jax.random.key(0)),
+        rb.sample(buffer, jax.random.key(0), config.batch_size), jax.random.key(0)).compile()
     cost = single.cost_analysis()
     cost = cost[0] if isinstance(cost, (list, tuple)) else cost
-    calls = itertools.count()
-    return (float(cost.get("flops", float("nan"))), lambda: jax.block_until_ready(
-        scanned(state, jax.random.fold_in(jax.random.key(2), next(calls)))))
+    return float(cost.get("flops", float("nan")))
 
 
 def torch_updates(data, updates):
