@@ -26,6 +26,8 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
+from benchmarks.points import reach_holds
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, "benchmarks", "results")
 DOC = os.path.join(ROOT, "BENCHMARKS.md")
@@ -640,12 +642,14 @@ def _target_playground_peer():
     complete = len(names) == len(PLAYGROUND_FAMILY)
 
     def figure(key, limit):
-        # a reach counts only where the delivered actors scored the peer's return on fresh
+        # a reach counts only where every delivered actor scored the peer's return on fresh
         # episodes (the time ratio rests on one seed's run, the seeds ratio on both)
-        runs = {r["task"]: [r["ours"]["1"]] if key == "ours_over_peer_time"
-                else list(r["ours"].values()) for r in results}
-        holds = {task: [run.get("reach_holds", "unscored") for run in rs]
-                 for task, rs in runs.items()}
+        runs = {r["task"]: [(r["ours"]["1"], r)] if key == "ours_over_peer_time"
+                else [(run, r) for run in r["ours"].values()] for r in results}
+        holds = {task: [run.get("reach_holds", "unscored") if "fresh" not in run
+                        or run["to_peer_final"] is None
+                        else reach_holds(run["fresh"], r["peer"]["final_return"])
+                        for run, r in rs] for task, rs in runs.items()}
         why = {task: "" if all(x is True for x in h) else " (not held on fresh episodes)"
                if False in h else " (not scored on fresh episodes)" for task, h in holds.items()}
         values = {r["task"]: r[key] for r in results}

@@ -1,5 +1,5 @@
 """benchmarks/points.py: every evaluation point recorded, a progress line at most every
-`every_s` seconds."""
+`every_s` seconds; a reach held on fresh episodes."""
 
 from __future__ import annotations
 
@@ -22,3 +22,9 @@ def test_every_point_is_recorded_and_progress_is_printed_at_most_every_interval(
     assert capsys.readouterr().out.splitlines() == [
         "ours: 2,048 steps after 35 s, kept score 204.8 on average, 50% of seeds stopped",
         "ours: 4,096 steps after 70 s, kept score 409.6 on average, 100% of seeds stopped"]
+
+
+def test_a_reach_holds_only_where_every_seed_scores_it_on_fresh_episodes():
+    """Two seeds whose fresh mean is at the target, one of them below it, do not hold it."""
+    assert points.reach_holds([50.0, 40.0], 40.0)
+    assert not points.reach_holds([50.0, 30.0], 40.0)
