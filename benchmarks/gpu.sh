@@ -57,7 +57,8 @@ fi
 # this every process would compile these packages' sources again (1.7 s of each startup).
 python3 -m compileall -q -j 0 /tmp/site sac_jax envs scripts benchmarks >/dev/null 2>&1
 export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
-export SAC_JAX_BENCHMARK_VIA="bash benchmarks/gpu.sh $*"  # recorded beside each file's command
+via=$(printf ' %q' "$@")  # quoted as a shell takes it back
+export SAC_JAX_BENCHMARK_VIA="bash benchmarks/gpu.sh${via}"  # recorded beside each file's command
 SAC_JAX_RESULTS_DIR=$(mktemp -d /tmp/results.XXXXXX); export SAC_JAX_RESULTS_DIR
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader
 python3 -c "import jax, flax, optax, distrax; print('jax', jax.__version__, jax.devices())"

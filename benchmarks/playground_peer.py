@@ -20,8 +20,8 @@
     seed 0 reached 861.1 in 328,704 steps in one H200 run and stayed at 853.6 for 1,623,040 in
     the next, where 9 of 16 vmapped seeds reached 859.9 within 345,088).
     `--peer-from FILE` takes (a) from an earlier result of the same task instead of running it
-    (recorded as `peer_from`: the file's command and date), for when both sides do not fit one
-    job's time limit: run it on a machine of the earlier job's kind. With `--runs 0` the
+    (recorded as `peer_from`: the file's command, date, machine and versions), for when both
+    sides do not fit one job's time limit, on a machine of the earlier job's device kind. With `--runs 0` the
     one-seed side comes from that file too (recorded as `one_seed_from`), measured beside the
     peer with the same preset, variant, seed, budget and margin, and this job runs only
     `--seeds` seeds: for when even ours' two sides do not fit one job (AcrobotSwingup's).
@@ -99,7 +99,9 @@ def run_peer(task: str, arguments: dict, seed: int) -> dict:
 
 
 def _earlier(path: str, task: str):
-    """(result, provenance) of an earlier playground_peer result file of `task`."""
+    """(result, provenance) of an earlier playground_peer result file of `task`, measured on
+    a device of this machine's kind (where the file names one): a ratio of times from two
+    jobs compares like with like only there."""
     try:
         with open(path) as f:
             earlier = json.load(f)
@@ -110,8 +112,13 @@ def _earlier(path: str, task: str):
                          f"({type(error).__name__}: {error})") from None
     if run[0] != task:
         raise ValueError(f"--peer-from {path} is a run of {run[0]}, not {task}")
+    machine, here = source.get("machine") or {}, jax.devices()[0].device_kind
+    if machine.get("device_kind", here) != here:
+        raise ValueError(f"--peer-from {path} was measured on a {machine['device_kind']}, "
+                         f"not this machine's {here}")
     return result, dict(file=os.path.basename(path), command=source.get("command"),
-                        date=source.get("date"))
+                        date=source.get("date"), machine=machine,
+                        versions=source.get("versions"))
 
 
 def earlier_peer(path: str, task: str):

@@ -11,6 +11,8 @@ import json
 import os
 import platform
 import re
+import shlex
+import subprocess
 import sys
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
@@ -49,8 +51,24 @@ def result_name(base: str, all_devices: bool = False) -> str:
     return f"{base}-{machine_kind(all_devices)}"
 
 
+def _commit() -> dict:
+    """The sac-jax commit measured, and whether the tree had changes beside it (None where
+    this is no git checkout, as on a device machine's copy of the tree)."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+    def git(*args):
+        return subprocess.run(["git", "-C", root, *args], capture_output=True, text=True,
+                              check=True).stdout.strip()
+    try:
+        return {"commit": git("rev-parse", "HEAD"),
+                "changed": bool(git("status", "--porcelain", "--untracked-files=no"))}
+    except (OSError, subprocess.CalledProcessError):
+        return {"commit": None, "changed": None}
+
+
 def provenance() -> dict:
-    """The command (as typed: `python -m benchmarks.x ...`), machine, versions and UTC date."""
+    """The command (as typed: `python -m benchmarks.x ...`, quoted to paste into a shell), the
+    sac-jax commit, machine, versions and UTC date."""
     import jax
 
     versions = {}
@@ -62,7 +80,7 @@ def provenance() -> dict:
     module = sys.modules["__main__"].__spec__
     program = (f"python -m {module.name}" if module is not None
                else f"python {os.path.relpath(sys.argv[0])}")
-    source = {"command": " ".join([program, *sys.argv[1:]])}
+    source = {"command": f"{program} {shlex.join(sys.argv[1:])}".rstrip(), **_commit()}
     if os.environ.get("SAC_JAX_BENCHMARK_VIA"):  # benchmarks/gpu.sh's own command line
         source["via"] = os.environ["SAC_JAX_BENCHMARK_VIA"]
     return {**source,

@@ -22,6 +22,7 @@ import time
 STARTED = time.perf_counter()
 
 import argparse  # noqa: E402
+import importlib.metadata  # noqa: E402
 import json  # noqa: E402
 import statistics  # noqa: E402
 
@@ -77,7 +78,8 @@ def main() -> None:
     runs = [measure(algo, n, args.repeats) for n in args.seeds]
     for run in runs[1:]:  # started after the first count's runs: not one user's wait
         del run["to_result_s"]
-    print(json.dumps(dict(rejax=rejax.__version__ if hasattr(rejax, "__version__") else "0.1.3",
+    print(json.dumps(dict(rejax=importlib.metadata.version("rejax"),
+                          gymnax=importlib.metadata.version("gymnax"),
                           jax=jax.__version__, device=jax.devices()[0].device_kind,
                           config=CONFIG, eval_freq=args.eval_freq, runs=runs)))
 

@@ -35,7 +35,7 @@ def test_the_peer_run_and_its_provenance_come_from_the_earlier_file(tmp_path):
     assert network == {"q_network_layer_norm": True}
     assert source == {"file": "playground_peer-AcrobotSwingup-h100.json",
                       "command": "python -m benchmarks.playground_peer --task AcrobotSwingup",
-                      "date": "2026-11-27T17:44:50+00:00"}
+                      "date": "2026-11-27T17:44:50+00:00", "machine": {}, "versions": None}
 
 
 def test_a_peer_taken_from_a_file_that_took_it_from_another_names_the_job_that_ran_it(tmp_path):
@@ -54,12 +54,18 @@ def test_a_peer_taken_from_a_file_that_took_it_from_another_names_the_job_that_r
     ('{"result": {"task": "AcrobotSwingup"}}', "is not a playground_peer result (KeyError: "),
     ("not json", "is not a playground_peer result (JSONDecodeError: "),
     ("missing", "is not a playground_peer result (FileNotFoundError: "),
+    ("gpu", "was measured on a NVIDIA H200, not this machine's cpu"),
 ])
 def test_a_file_of_another_task_or_no_result_fails_in_one_line(tmp_path, monkeypatch, capsys,
                                                                 content, message):
     path = tmp_path / "earlier.json"
     if content is None:
         write_earlier(path, task="CartpoleSwingup")
+    elif content == "gpu":  # a ratio of times needs both jobs on one device kind
+        write_earlier(path)
+        earlier = json.loads(path.read_text())
+        earlier["provenance"]["machine"] = {"device_kind": "NVIDIA H200"}
+        path.write_text(json.dumps(earlier))
     elif content != "missing":
         path.write_text(content)
     monkeypatch.setattr(sys, "argv", ["playground_peer.py", "--task", "AcrobotSwingup",
@@ -173,7 +179,8 @@ def test_runs_0_takes_the_one_seed_side_from_the_earlier_file_and_runs_only_the_
     assert result["ours"]["1"] == ONE_SEED and result["ours"]["16"]["seeds"] == 16
     assert result["one_seed_from"] == result["peer_from"] == {
         "file": "job1.json", "command": "python -m benchmarks.playground_peer --task "
-        "AcrobotSwingup", "date": "2026-11-27T17:44:50+00:00"}
+        "AcrobotSwingup", "date": "2026-11-27T17:44:50+00:00", "machine": {},
+        "versions": None}
     assert result["ours_over_peer_time"] == round(60.0 / PEER["wall_s"], 3)
     assert result["seeds_over_one_time"] == 1.5  # 90 s against the earlier job's 60 s
 
