@@ -53,9 +53,10 @@ def train(out: str, *flags: str, cache_dir: str = None, env: dict = None) -> dic
         return dict(json.load(f), process_wall_s=round(wall, 3))
 
 
-def gymnasium_scores(run: str, seeds: int, episodes: int) -> list:
+def gymnasium_scores(run: str, seeds: int, episodes: int, first: int = 0) -> list:
     """Mean return over `episodes` episodes of each seed's delivered policy in the Gymnasium
-    twin of the run's task."""
+    twin of the run's task; seed s of the run is judged on the episodes of seed `first` + s,
+    so that runs of different seeds are judged on different episodes."""
     import gymnasium
 
     import envs
@@ -65,24 +66,24 @@ def gymnasium_scores(run: str, seeds: int, episodes: int) -> list:
     policies = [sac_jax.load_policy(run, s) for s in range(seeds)]
     env = gymnasium.make(envs.spec(policies[0].config.env).gymnasium_id)
     try:
-        return [float(np.mean(gymnasium_returns(policy, env, episodes, seed=1000 + s)))
+        return [float(np.mean(gymnasium_returns(policy, env, episodes, seed=1000 + first + s)))
                 for s, policy in enumerate(policies)]
     finally:
         env.close()
 
 
-def our_scores(run: str, seeds: int, episodes: int) -> list:
+def our_scores(run: str, seeds: int, episodes: int, first: int = 0) -> list:
     """Mean return over `episodes` episodes of the run's task as `envs.make` gives it (our
     InvertedPendulum-v5 steps as Gymnasium's does, tests/test_envs.py) of each seed's delivered
     policy, all seeds in one jitted evaluation, from initial states no training evaluation drew
-    (`fresh_returns`)."""
+    (`fresh_returns`; seed s of the run on the episodes of seed `first` + s)."""
     import sac_jax
     from benchmarks.fresh_episodes import fresh_returns
     from sac_jax import run_checkpoint
 
     config = sac_jax.load_policy(run, 0).config
     _, _, runner, _ = run_checkpoint.load_checkpoint(run)
-    return fresh_returns(config, runner.delivered.actor_params, episodes)
+    return fresh_returns(config, runner.delivered.actor_params, episodes, first)
 
 
 def scorer(judge: str):
@@ -133,7 +134,7 @@ def main() -> None:
                "solved_at_step": summary["solved_at_step"][0],
                "delivered_return": summary["delivered_return"][0],
                "process_wall_s": summary["process_wall_s"],
-               score_key: score(out, 1, args.episodes)[0]}
+               score_key: score(out, 1, args.episodes, seed)[0]}
         print(json.dumps(row), flush=True)
         result["runs"].append(row)
     if args.many:

@@ -26,7 +26,8 @@ def test_cold_runs_each_start_from_an_empty_cache_and_are_reported_by_their_medi
 
     monkeypatch.setattr(delivered, "train", train)
     monkeypatch.setattr(delivered, "gymnasium_scores",
-                        lambda run, seeds, episodes: [990.0 if run.endswith("/cold1") else 1000.0])
+                        lambda run, seeds, episodes, first=0: [990.0 if run.endswith("/cold1")
+                                                               else 1000.0])
     monkeypatch.setattr(delivered, "write_result",
                         lambda name, result, provenance: written.update({name: result}))
     monkeypatch.setattr(delivered, "provenance", lambda: {})
@@ -47,8 +48,9 @@ def test_cold_runs_each_start_from_an_empty_cache_and_are_reported_by_their_medi
 
 def test_another_preset_trains_in_every_run_and_is_judged_in_its_own_task(monkeypatch, tmp_path):
     """--preset CartpoleBalance: every run passes the preset; a task with no Gymnasium twin is
-    judged over fresh episodes of the task itself, against its solved return (900)."""
-    calls, written = [], {}
+    judged over fresh episodes of the task itself, against its solved return (900); each
+    seed's run on episodes of its own (the cold run's seed is 0)."""
+    calls, written, firsts = [], {}, []
 
     def train(out, *flags, cache_dir=None, env=None):
         calls.append(flags)
@@ -58,7 +60,8 @@ def test_another_preset_trains_in_every_run_and_is_judged_in_its_own_task(monkey
     fresh = iter([950.0, 850.0, 990.0])
     monkeypatch.setattr(delivered, "train", train)
     monkeypatch.setattr(delivered, "gymnasium_scores", lambda *args: 1 / 0)
-    monkeypatch.setattr(delivered, "our_scores", lambda run, seeds, episodes: [next(fresh)])
+    monkeypatch.setattr(delivered, "our_scores", lambda run, seeds, episodes, first=0: (
+        firsts.append(first), [next(fresh)])[1])
     monkeypatch.setattr(delivered, "write_result",
                         lambda name, result, provenance: written.update({name: result}))
     monkeypatch.setattr(delivered, "provenance", lambda: {})
@@ -73,6 +76,7 @@ def test_another_preset_trains_in_every_run_and_is_judged_in_its_own_task(monkey
     assert [r["fresh_return"] for r in result["runs"]] == [950.0, 850.0]
     assert result["warm"]["ours_at_least_900"] == 1
     assert result["cold"]["fresh_return"] == 990.0
+    assert firsts == [0, 1, 0]
 
 
 def test_judging_a_task_without_a_gymnasium_twin_in_gymnasium_fails_in_one_line(
