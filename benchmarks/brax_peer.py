@@ -33,8 +33,10 @@ Measured per trainer, with the same clock for both:
   (`solve_first_eval`: optimistic, as its later evaluations may fall) and whether its last
   evaluation is solved (`final_eval_return`). solve_train_s: the same minus the compile time
   before it.
-* env_steps_per_s: environment steps of the run / (run wall time - compile_s), evaluations
-  included for both.
+* env_steps_per_s: environment steps to that point / solve_train_s, evaluations included for
+  both (of the whole run where it is not solved). Both sides over the same steps: ours stops
+  there, and Brax's evaluations after it step full 1,000-step episodes, which would count
+  against its rate (before 2026-11-30 Brax's was over its whole run).
 Ratios are ours / brax (time: below 1 means ours is faster; steps/s: above 1).
 
 The persistent compilation cache is off unless --cache-dir is given (then both use it).
@@ -139,8 +141,9 @@ def figures(clock, t0, t_end, points, threshold):
                solved_at_step=None, solve_total_s=None, solve_train_s=None)
     if solved is not None:
         step, t = solved
+        train_s = t - t0 - clock.seconds(t0, t)
         out.update(solved_at_step=step, solve_total_s=round(t - t0, 2),
-                   solve_train_s=round(t - t0 - clock.seconds(t0, t), 2))
+                   solve_train_s=round(train_s, 2), env_steps_per_s=round(step / train_s, 1))
     return out
 
 

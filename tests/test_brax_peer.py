@@ -1,6 +1,7 @@
 """The pieces of benchmarks/brax_peer.py that its figures rest on: the compile clock's union of
 event spans, the stand-in for `jax.device_put_replicated`, and the mapping onto Brax's
-`sac.train` arguments (whose evaluation points must fall where ours do)."""
+`sac.train` arguments (whose evaluation points must fall where ours do), and the rate both
+are measured at."""
 
 from __future__ import annotations
 
@@ -67,3 +68,18 @@ def test_brax_arguments_evaluate_where_we_do(peer, changes):
 def test_brax_arguments_refuse_what_brax_cannot_express(peer):
     with pytest.raises(ValueError, match="critic_lr=0.0003"):
         peer.brax_arguments(PRESETS["fast"].replace(critic_lr=3e-4))
+
+
+def test_env_steps_per_second_run_to_the_first_solved_point(peer):
+    """Both trainers' rates cover the same steps: from the call to the first solved point,
+    compile time out, not Brax's later full-length evaluations (ours stops there)."""
+    class Clock:  # 10 s of compiling, all before the first point
+        def seconds(self, t0, t1):
+            return min(t1 - t0, 10.0)
+
+    points = [(1024, 100.0, 112.0), (2048, 960.0, 114.0), (3072, 1000.0, 130.0)]
+    out = peer.figures(Clock(), 100.0, 131.0, points, threshold=950.0)
+    assert out["solved_at_step"] == 2048 and out["solve_train_s"] == 4.0
+    assert out["env_steps_per_s"] == 512.0  # 2048 steps in 4 s, not 3072 in 21 s
+    unsolved = peer.figures(Clock(), 100.0, 131.0, points[:1], threshold=950.0)
+    assert unsolved["env_steps_per_s"] == round(1024 / 21.0, 1)
