@@ -131,10 +131,10 @@ def main() -> None:
         "seed_data_bytes": one_seed.replay + one_seed.state,
         "seed_buffer_size": small,
         "buffers": buffers, "seeds": seeds,
-        "estimate_over_peak": {f"{s} seed(s), {b:,} slots": round(
-            r["memory_model_peak_bytes"] / r[key], 3)
-            for (s, b, r) in [(1, b, r) for b, r in buffers.items()]
-            + [(s, small, r) for s, r in seeds.items()]}}
+        "estimate_over_peak": {f"{grid}: {s} seed(s), {b:,} slots": round(
+            r["memory_model_peak_bytes"] / r[key], 3)  # the grids share 1 seed, `small` slots
+            for (grid, s, b, r) in [("buffers", 1, b, r) for b, r in buffers.items()]
+            + [("seeds", s, small, r) for s, r in seeds.items()]}}
     result["per_slot_over_data"] = round(result["bytes_per_slot"] / slot, 3)
     if args.largest:
         temporaries = q1["memory_model"]["temporaries"] / s1

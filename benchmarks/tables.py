@@ -89,6 +89,14 @@ def _cpu(data: dict) -> str:
     return " ".join(name.split())
 
 
+def _where(data: dict) -> str:
+    """A table's machine cell: "CPU" for the page's usual AMD EPYC, "CPU (Intel Xeon)" for
+    another CPU, else the accelerator (`_machine`)."""
+    if data["provenance"]["machine"].get("device_kind", "cpu").lower() != "cpu":
+        return _machine(data)
+    return "CPU" if _cpu(data).startswith("AMD EPYC") else f"CPU ({_cpu(data)})"
+
+
 def _from(name: str, data: dict) -> str:
     """The line above a one-file table: its file, date and machine."""
     return f"From `{name}.json` ({_date(data)}, {_machine(data)}):\n\n"
@@ -252,8 +260,8 @@ def memory() -> str:
     for name in [n for n in ("memory", _gpu("memory")) if n]:
         data = _load(name)
         r = data["result"]
-        where, key = (("CPU", "peak_host_bytes") if name == "memory"
-                      else (_machine(data), "peak_device_bytes"))
+        where, key = _where(data), ("peak_host_bytes" if name == "memory"
+                                    else "peak_device_bytes")
         ratio = lambda m: m["memory_model_peak_bytes"] / m[key]
         grid = list(r.get("estimate_over_peak", {}).values())
         m = r.get("largest", {})
@@ -584,7 +592,7 @@ def _playground_files() -> List[str]:
 def playground() -> str:
     """Playground's raw task step against our adapter's, per task and machine, per backend."""
     def rows(name, data):
-        where = "CPU" if name.endswith("-cpu") else _machine(data)
+        where = _where(data)
         groups = {}
         for r in data["result"]["rows"]:
             groups.setdefault(r["task"], []).append(r)
@@ -699,7 +707,7 @@ def _target_playground_cpu():
 def rejax() -> str:
     """rejax against ours on rejax's tuned Pendulum-v1 SAC: its program, our program, our script."""
     def rows(name, data):
-        where = "CPU" if name.endswith("-cpu") else _machine(data)
+        where = _where(data)
         out = []
         for r in data["result"]["rows"]:
             j, p, cold, warm = r["rejax"], r["program"], r["script_cold"], r["script_warm"]
