@@ -174,15 +174,16 @@ def delivered_cpu() -> str:
                          f"last {many['all_solved_wall_s']:.1f}",
                          f"last {many['all_solved_process_s']:.1f}",
                          _scores(many["return"]), f"`{name}.json`"])
+    if not rows:
+        return _pending("python -m benchmarks.delivered --cold 5")
     return _table(["run", "date", "solved at step", "training s", "from process start s",
                    "Gymnasium return (10 episodes)", "results"], rows)
 
 
 def delivered_gpu() -> str:
     """Seeds 0-2 alone and 256 seeds in one run (one GPU), scored in our environment."""
-    rows = []
-    for name in (_gpu("delivered"), _gpu("delivered-warm")):
-        data = _load(name)
+    def rows_of(name, data):
+        rows = []
         result, date = data["result"], _date(data)
         runs = result["runs"]
         rows.append([f"seeds {', '.join(str(r['seed']) for r in runs)}, one run each", date,
@@ -196,8 +197,13 @@ def delivered_gpu() -> str:
                      f"all after {many['all_solved_process_s']:.1f}",
                      f"{many['at_least_950']}/{many['seeds']} ≥ 950, lowest "
                      f"{min(many['return']):g} (ours)", f"`{name}.json`"])
-    return _table(["run", "date", "training s", "from process start s", "return (10 episodes)",
-                   "results"], rows)
+        return rows
+
+    return _sources([(_gpu("delivered"), "bash benchmarks/gpu.sh delivered"),
+                     (_gpu("delivered-warm"), "bash benchmarks/gpu.sh delivered --warm-many "
+                      "--name delivered-warm-KIND")],
+                    ["run", "date", "training s", "from process start s",
+                     "return (10 episodes)", "results"], rows_of)
 
 
 def presets() -> str:
@@ -233,6 +239,8 @@ def _brax_rates(result) -> Tuple[Dict[str, Optional[float]], Optional[float]]:
 def brax() -> str:
     """Brax's SAC against ours on the same physics (medians over the seeds)."""
     name = _gpu("brax_peer")
+    if name is None:
+        return _pending("bash benchmarks/gpu.sh brax --seeds 3", " on a GPU")
     data = _load(name)
     result, date = data["result"], _date(data)
     rates, rate_ratio = _brax_rates(result)
@@ -256,9 +264,7 @@ def memory() -> str:
     """Peak memory per replay slot and per seed against their data, and `sac_jax.memory`'s
     estimate against the measured peak (CPU: peak RSS; a GPU: peak device bytes): its range
     over the grid's runs, and the largest run the memory check accepted."""
-    rows = []
-    for name in [n for n in ("memory", _gpu("memory")) if n]:
-        data = _load(name)
+    def rows_of(name, data):
         r = data["result"]
         where, key = _where(data), ("peak_host_bytes" if name == "memory"
                                     else "peak_device_bytes")
@@ -268,15 +274,18 @@ def memory() -> str:
         largest = ("-" if key not in m else
                    f"{m['seeds']:,} seeds x {m['buffer_size']:,} slots: {m[key] / 1e9:.2f} GB, "
                    f"estimate {ratio(m):.2f}x")
-        rows.append([where, f"{r['bytes_per_slot']:.1f} / {r['slot_data_bytes']} "
-                            f"({r['per_slot_over_data']:.2f}x)",
-                     f"{r['bytes_per_seed'] / 1e6:.2f} / {r['seed_data_bytes'] / 1e6:.2f} MB "
-                     f"({r['seed_buffer_size']:,} slots)",
-                     _span(grid, "{:.2f}") + f" ({len(grid)} runs)"
-                     if grid else "-", largest, _date(data), f"`{name}.json`"])
-    return _table(["machine", "peak / data bytes per replay slot",
-                   "per seed, its buffer included", "estimate / peak, 1-64 seeds, 10^4-10^7 "
-                   "slots", "largest accepted run", "date", "results"], rows)
+        return [[where, f"{r['bytes_per_slot']:.1f} / {r['slot_data_bytes']} "
+                        f"({r['per_slot_over_data']:.2f}x)",
+                 f"{r['bytes_per_seed'] / 1e6:.2f} / {r['seed_data_bytes'] / 1e6:.2f} MB "
+                 f"({r['seed_buffer_size']:,} slots)",
+                 _span(grid, "{:.2f}") + f" ({len(grid)} runs)"
+                 if grid else "-", largest, _date(data), f"`{name}.json`"]]
+
+    return _sources([(_find("memory"), "python -m benchmarks.memory --largest 1000000"),
+                     (_gpu("memory"), "bash benchmarks/gpu.sh memory")],
+                    ["machine", "peak / data bytes per replay slot",
+                     "per seed, its buffer included", "estimate / peak, 1-64 seeds, 10^4-10^7 "
+                     "slots", "largest accepted run", "date", "results"], rows_of)
 
 
 # The commands that write the results files of the tables below (BENCHMARKS.md's sizes).
