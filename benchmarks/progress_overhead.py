@@ -8,12 +8,13 @@ times each (compile time excluded from all):
     followed      the same, writing TensorBoard scalars at every evaluation point and a
                   checkpoint (the whole state, replay buffers included, written on a
                   background thread) after it, as `scripts/train.py` does (which also
-                  prints one line per point)
+                  prints one line per point); its time runs until the last of those writes
+                  ends (before 2026-11-30 it stopped short of the final checkpoint's)
 Each figure is the median over the repeats; the overheads are medians of the ratios of runs
 made back to back (the machine's speed drifts between repeats). `followed_host_pct` is the
 direct measure: the share of the followed run's time that the host spends between chunks
 (finiteness check, progress, TensorBoard, checkpoint) while the device waits for the next
-chunk (`summary["host_s"]` of `run_training`). On a CPU the figures of whole runs scatter by
+chunk (`summary["host_s"]` of `run_training`), and waiting for the last writes at the end. On a CPU the figures of whole runs scatter by
 about 10% run to run, and the single scan and the chunked runs take different numerical paths
 (float rounding of two programs), so their evaluations can last different numbers of steps.
 
@@ -85,10 +86,12 @@ def main():
                 config, seeds=args.seeds,
                 on_point=lambda step, means, returns, _: tensorboard.add_point(step, means, returns),
                 on_checkpoint=checkpoints.save)
+            closing = time.perf_counter()  # the last writes, the final checkpoint's included
             tensorboard.close()
             checkpoints.close()
-            times["followed"].append(result.summary["run_s"])
-            host.append(result.summary["host_s"] / result.summary["run_s"])
+            close_s = time.perf_counter() - closing
+            times["followed"].append(result.summary["run_s"] + close_s)
+            host.append((result.summary["host_s"] + close_s) / times["followed"][-1])
             returns["followed"] = result.metrics["eval_return"]
             print(json.dumps({k: round(v[-1], 3) for k, v in times.items()}), file=sys.stderr)
 
