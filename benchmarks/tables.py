@@ -752,7 +752,10 @@ def _target_rejax(key: str, limit: float, above: bool):
     for name in names:
         where = "CPU" if name.endswith("-cpu") else "GPU"
         for r in _load(name)["result"]["rows"]:
-            parts.append(f"{where} {r['seeds']} seed(s) {r[key]:.2f}x")
+            devices = r["script_warm"].get("seed_devices", 1)  # the program ran on one
+            parts.append(f"{where} {r['seeds']} seed(s) {r[key]:.2f}x"
+                         + (f" (the script on {devices} devices)"
+                            if devices > 1 and key == "script_over_program" else ""))
             met = met and (r[key] >= limit if above else r[key] <= limit)
     return names, [("; ".join(parts), met if len(names) == 2 or not met else None)]
 
