@@ -196,7 +196,8 @@ def delivered_gpu() -> str:
                      date, f"all after {many['all_solved_wall_s']:.1f}",
                      f"all after {many['all_solved_process_s']:.1f}",
                      f"{many['at_least_950']}/{many['seeds']} ≥ 950, lowest "
-                     f"{min(many['return']):g} (ours)", f"`{name}.json`"])
+                     f"{min(many['return']):g} ({many.get('judged_in', 'ours')})",
+                     f"`{name}.json`"])
         return rows
 
     return _sources([(_gpu("delivered"), "bash benchmarks/gpu.sh delivered"),
@@ -416,9 +417,13 @@ def torch_loop() -> str:
                          f"**{statistics.median(x['solved_process_s'] for x in solved):.1f}** "
                          "(median of the solved)", "-", "-", _date(d), f"`{ours}.json`"])
         if ours == "delivered-cold" and res.get("cold") and res["cold"]["solved_process_s"]:
-            rows.append([label + ", its delivered policy confirmed", "1/1 solved",
-                         f"**{res['cold']['solved_process_s']:.1f}**", "-", "-", _date(d),
-                         f"`{ours}.json`"])
+            colds = res["cold"].get("runs", [res["cold"]])
+            rows.append([label + ", its delivered policy confirmed",
+                         f"{sum(c['solved_process_s'] is not None for c in colds)}/"
+                         f"{len(colds)} runs of seed {res['runs'][0]['seed']} solved",
+                         f"**{res['cold']['solved_process_s']:.1f}**"
+                         + (f" (median of {len(colds)})" if len(colds) > 1 else ""), "-", "-",
+                         _date(d), f"`{ours}.json`"])
     return _table(["trainer", "seeds solved", "s to solved (from process start for ours)",
                    "env steps/s", "updates/s", "date", "results"], rows)
 
