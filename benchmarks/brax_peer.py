@@ -219,8 +219,8 @@ def main():
         ours_run = run_ours(config, seed, clock, threshold)
         ours_steps = ours_run["eval_steps"]  # ours stops once solved: a prefix of Brax's
         if brax_run["eval_steps"][:len(ours_steps)] != ours_steps:
-            raise RuntimeError(f"evaluation points differ: brax {brax_run['eval_steps']}, "
-                               f"ours {ours_steps}")
+            raise SystemExit(f"evaluation points differ: brax {brax_run['eval_steps']}, "
+                             f"ours {ours_steps}")
         brax_run["final_eval_return"] = brax_run["eval_returns"][-1]
         runs.append(dict(seed=seed, brax=brax_run, ours=ours_run))
         print(f"seed {seed}: brax {brax_run}\n        ours {ours_run}", file=sys.stderr,

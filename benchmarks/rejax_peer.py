@@ -109,7 +109,7 @@ def script(seeds: int, cache_dir: str) -> dict:
                               cwd=ROOT, capture_output=True, text=True)
         wall_s = time.perf_counter() - start
         if proc.returncode != 0:
-            raise RuntimeError(f"scripts/train.py failed: {proc.stderr.strip()[-500:]}")
+            raise SystemExit(f"scripts/train.py failed: {proc.stderr.strip()[-500:]}")
         with open(os.path.join(out, "run", "summary.json")) as f:
             summary = json.load(f)
     return dict(wall_s=round(wall_s, 3), compile_s=summary["compile_s"], run_s=summary["run_s"],
@@ -141,7 +141,10 @@ def main() -> None:
                               capture_output=True, text=True)
         if proc.returncode != 0:
             raise SystemExit(f"rejax side failed: {proc.stderr.strip()[-500:]}")
-        return json.loads(proc.stdout.strip().splitlines()[-1])
+        lines = proc.stdout.strip().splitlines()
+        if not lines:
+            raise SystemExit(f"rejax side printed nothing: {proc.stderr.strip()[-500:]}")
+        return json.loads(lines[-1])
 
     rejax = None
     for n in args.seeds:

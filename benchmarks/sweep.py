@@ -44,7 +44,7 @@ def _process(argv) -> float:
     wall = time.perf_counter() - start
     if proc.returncode:
         raise SystemExit(f"{' '.join(argv)} failed:\n{proc.stderr[-2000:]}")
-    print(proc.stdout.strip().splitlines()[-1], flush=True)
+    print((proc.stdout.strip().splitlines() or [""])[-1], flush=True)
     return wall
 
 
@@ -106,8 +106,7 @@ def main() -> None:
         result[label] = {"sweep": sweep, "separate": separate,
                          "ratio": round(sweep["process_wall_s"] / separate["process_wall_s"], 3)}
         print(json.dumps(result[label]), flush=True)
-    path = write_result(args.name or f"sweep-{machine_kind()}", result, source)
-    print(f"wrote {path}")
+    write_result(args.name or f"sweep-{machine_kind()}", result, source)
 
 
 if __name__ == "__main__":
