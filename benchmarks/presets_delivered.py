@@ -1,7 +1,10 @@
-"""Does every preset deliver? Trains N seeds of each named configuration in one run each and
-scores every seed's delivered policy over 10 episodes of Gymnasium's twin of the task (our
-environment, from fresh initial states, where Gymnasium has no twin: the Bullet-style
-pendulum of `v1`), against the task's solved return.
+"""Does every preset deliver? Trains N seeds of each named configuration in one run each, as a
+user does (`scripts/train.py --preset NAME --seeds N`, in its own process), and scores every
+seed's saved policy (`sac_jax.load_policy` of the run directory) over 10 episodes of
+Gymnasium's twin of the task (our environment, from fresh initial states, where Gymnasium has
+no twin: the Bullet-style pendulum of `v1`), against the task's solved return
+(`benchmarks.delivered`'s scorers). Before 2026-11-30 it scored the delivered actors of
+`run_training` in this process, not what a run saves.
 
     python -m benchmarks.presets_delivered          # cleanrl, pendulum, v1, double-pendulum
     python -m benchmarks.presets_delivered --runs pendulum --seeds 2
@@ -14,34 +17,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import tempfile
 import time
-
-import jax
-import numpy as np
 
 import envs
 import sac_jax
+from benchmarks.delivered import scorer, train
 from benchmarks.provenance import provenance, result_name, write_result
-from sac_jax.run import run_training
-from sac_jax.saved_policy import SavedPolicy
-from sac_jax.train import agent_for
-from scripts.evaluate import gymnasium_returns
-
-
-def score(policy: SavedPolicy, episodes: int, seed: int) -> float:
-    """Mean return over `episodes` episodes in Gymnasium's twin, else in ours."""
-    env_name = policy.config.env
-    gym_id = envs.spec(env_name).gymnasium_id
-    if gym_id is not None:
-        import gymnasium
-        env = gymnasium.make(gym_id)
-        try:
-            return float(np.mean(gymnasium_returns(policy, env, episodes, seed)))
-        finally:
-            env.close()
-    returns = sac_jax.evaluate(policy.agent, envs.make(env_name), policy.actor_params,
-                               jax.random.key(seed), episodes)
-    return float(np.mean(returns))
 
 
 def main() -> None:
@@ -54,25 +37,22 @@ def main() -> None:
                         "(default presets_delivered-KIND: presets_delivered-h100)")
     args = parser.parse_args()
     source = provenance()
-    sac_jax.enable_compilation_cache()
+    root = tempfile.mkdtemp(prefix="presets-")
     results = {}
     for name in args.runs:
         config = sac_jax.PRESETS[name]
+        out = os.path.join(root, name)
         start = time.perf_counter()
-        result = run_training(config, seeds=args.seeds)
-        agent, _ = agent_for(config)
-        scores = [score(SavedPolicy(config, {}, s, agent, jax.tree_util.tree_map(
-            lambda x: x[s], result.state.delivered.actor_params)), args.episodes, 1000 + s)
-            for s in range(args.seeds)]
+        summary = train(out, "--preset", name, "--seeds", str(args.seeds))
+        judge = "gymnasium" if envs.spec(config.env).gymnasium_id else "ours"
+        scores = scorer(judge)(out, args.seeds, args.episodes)  # the saved policies
         threshold = envs.spec(config.env).solved_return
         results[name] = {
-            "env": config.env,
-            "judged_in": "gymnasium" if envs.spec(config.env).gymnasium_id else "ours",
-            "threshold": threshold, "scores": scores,
+            "env": config.env, "judged_in": judge, "threshold": threshold, "scores": scores,
             "solved": sum(s >= threshold for s in scores), "seeds": args.seeds,
-            "delivered_return": result.summary["delivered_return"],
-            "delivered_at_step": result.summary["delivered_at_step"],
-            "last_eval_return": result.summary["eval_return"],
+            "delivered_return": summary["delivered_return"],
+            "delivered_at_step": summary["delivered_at_step"],
+            "last_eval_return": summary["eval_return"],
             "run_steps": config.run_steps, "confirm_episodes": config.confirm_episodes,
             "seconds": round(time.perf_counter() - start, 1)}
         print(json.dumps({name: results[name]}), flush=True)
