@@ -133,12 +133,15 @@ def test_the_loop_delivers_the_actor_its_selection_keeps():
 
 @pytest.fixture
 def solved_everywhere(monkeypatch):
-    """Pendulum-v1's solved return lowered below any return, so a seed is solved from its
-    first evaluation point on (the threshold is read when the loop is traced)."""
+    """A stop below any return, so a seed is solved from its first evaluation point on. The
+    compiled loop reads it from the config (`stop_return`), which names its programs in the
+    persistent caches; the host's solved figures read Pendulum-v1's solved return, lowered
+    alike. (Lowering only the latter once left a program stopping at -1e9 in the caches under
+    the unchanged config's name, for the next run of that config.)"""
     spec = envs.spec("Pendulum-v1")
     monkeypatch.setitem(envs.registry.SPECS, spec.name,
                         dataclasses.replace(spec, solved_return=-1e9))
-    return CONFIG.replace(stop_when_solved=True)
+    return CONFIG.replace(stop_when_solved=True, stop_return=-1e9)
 
 
 @pytest.fixture
