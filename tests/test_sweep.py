@@ -5,7 +5,9 @@ uninterrupted one; bad input ends with one line, exit 2 and nothing written. Tha
 setting trains exactly as a run of its own config does is checked in float64 by
 tests/test_train.py (`test_a_sweep_equals_separate_runs_of_its_settings`)."""
 
+import contextlib
 import csv
+import io
 import os
 import shutil
 
@@ -32,13 +34,15 @@ def sweeps(tmp_path_factory):
     """The issue's sweep, whole; and the same sweep stopped by SIGINT, then resumed."""
     root = tmp_path_factory.mktemp("sweeps")
     whole, stopped = str(root / "whole"), str(root / "stopped")
-    assert sweep_script.main(SWEEP + ["--out", whole]) == 0
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert sweep_script.main(SWEEP + ["--out", whole]) == 0
     code = interrupted_main(sweep_script, SWEEP + ["--out", stopped])
     interrupted = str(root / "interrupted")
     shutil.copytree(stopped, interrupted)
     resumed = sweep_script.main(["--resume", stopped])
     return {"whole": whole, "stopped": stopped, "interrupted": interrupted, "code": code,
-            "resumed": resumed}
+            "resumed": resumed, "printed": printed.getvalue()}
 
 
 def test_the_issues_sweep_writes_one_row_per_setting_and_seed(sweeps, capsys):
@@ -81,6 +85,22 @@ def test_the_best_setting_is_printed_as_a_train_command(sweeps):
     assert command == ("python scripts/train.py --preset pendulum --total-steps 3000 "
                        f"--eval-every 1000 --actor-lr {lr!r}")
     assert train_script.parse_args(command.split()[2:]).config == config
+    last = sweeps["printed"].strip().splitlines()[-1]
+    assert last.startswith(f"best setting {best} (") and last.endswith(
+        f": mean delivered return {means[best]:.1f} over 2 seed(s); train it with: "
+        f"{command}; wrote {sweeps['whole']}"), last
+
+
+def test_the_best_setting_breaks_a_tie_by_the_earliest_mean_solved_step():
+    """Equal mean returns: the setting whose seeds were solved sooner on average wins, one never
+    solved counting as the latest; a NaN return is left out of its setting's mean."""
+    row = lambda setting, ret, step: dict(setting=setting, delivered_return=ret,
+                                          solved_at_step=step)
+    rows = [row(0, 900.0, 5000), row(0, 1000.0, None), row(1, 950.0, 7000),
+            row(1, 950.0, 9000), row(2, 950.0, 9000), row(2, float("nan"), 9000)]
+    assert sweep_script.best_setting(rows, 3) == (1, 950.0)  # means all 950; 8000 before 9000
+    rows[4] = row(2, 950.0, 6000)
+    assert sweep_script.best_setting(rows, 3) == (2, 950.0)  # 7500 before 8000
 
 
 def test_train_command_round_trips_every_kind_of_flag():
