@@ -125,18 +125,23 @@ def need(config: SACConfig, seeds: int, platform: Optional[str] = None, temporar
                       temporaries=temporaries, process=process)
 
 
-def compiled_parts(programs: Sequence, device: Optional[jax.Device] = None) -> Tuple[int, int]:
+def compiled_parts(programs: Sequence, device: Optional[jax.Device] = None,
+                   devices: int = 1) -> Tuple[int, int]:
     """(temporaries, process) of `need` once `programs` (the compiled programs a chunk runs
-    one after the other: `jax.stages.Compiled`s or `sac_jax.program_cache.CachedProgram`s)
-    exist: XLA's temporary bytes of the largest of them (0 where the backend does not say), and
-    on a CPU device this process's resident bytes now (/proc/self/statm; 0 elsewhere: a
-    device's free memory excludes them already)."""
+    one after the other: `jax.stages.Compiled`s or `sac_jax.program_cache.CachedProgram`s,
+    each over `devices` devices) exist: XLA's temporary bytes of the largest of them (0 where
+    the backend does not say), which are one device's, times `devices` on a CPU, whose devices
+    all take the host's memory; and on a CPU this process's resident bytes now
+    (/proc/self/statm; 0 elsewhere: a device's free memory excludes them already). (A CPU run
+    of 64 seeds of `fast` over 2 devices, 2,048 steps: 894 MB at peak, estimated 833 MB with
+    one device's temporaries, 876 MB with both.)"""
     try:
         temporaries = max(int(p.memory_analysis().temp_size_in_bytes) for p in programs)
     except Exception:  # a backend without the analysis
         temporaries = 0
     if (device or jax.local_devices()[0]).platform != "cpu":
         return temporaries, 0
+    temporaries *= devices
     try:
         with open("/proc/self/statm") as f:
             return temporaries, int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")

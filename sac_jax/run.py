@@ -304,7 +304,8 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     t0 = time.perf_counter()
     parts, init, chunk, sharding = compiled_program(config, seeds, tuple(values))
     # before the state exists; a checkpoint's copy counted where it fits, as the writer makes it
-    temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate))
+    temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate),
+                                                 devices=len(seed_devices(seeds)))
     model = memory.need(config, seeds, temporaries=temporaries, process=process,
                         available=memory.available()[0])
     if resume is None:

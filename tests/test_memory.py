@@ -6,6 +6,7 @@ import json
 import os
 import subprocess
 import sys
+import types
 
 import jax
 import pytest
@@ -125,3 +126,14 @@ def test_a_process_peak_is_its_own_not_that_of_the_process_that_started_it():
                                              capture_output=True, text=True).stdout.split())
     assert held.sum() == 10**9 // 8
     assert inherited >= 10**9 > own > 0
+
+
+def test_temporaries_count_every_cpu_device_and_one_accelerator():
+    """XLA's temporary bytes are one device's: a CPU run over 2 devices holds them twice in the
+    host's memory; an accelerator's free memory is its own, so one device's count there."""
+    programs = [types.SimpleNamespace(memory_analysis=lambda n=n: types.SimpleNamespace(
+        temp_size_in_bytes=n)) for n in (100, 300)]
+    cpu, gpu = (types.SimpleNamespace(platform=p) for p in ("cpu", "gpu"))
+    temporaries, process = memory.compiled_parts(programs, cpu, devices=2)
+    assert temporaries == 600 and process > 0
+    assert memory.compiled_parts(programs, gpu, devices=2) == (300, 0)
