@@ -272,9 +272,14 @@ def memory() -> str:
         ratio = lambda m: m["memory_model_peak_bytes"] / m[key]
         grid = list(r.get("estimate_over_peak", {}).values())
         m = r.get("largest", {})
-        largest = ("-" if key not in m else
-                   f"{m['seeds']:,} seeds x {m['buffer_size']:,} slots: {m[key] / 1e9:.2f} GB, "
-                   f"estimate {ratio(m):.2f}x")
+        if "failed" in m:  # estimated to fit, but the process did not finish
+            largest = (f"{m['seeds']:,} seeds x {m['buffer_size']:,} slots: **failed** "
+                       f"({m['failed'] or 'killed, out of memory'}), estimated to fit in 90 % "
+                       f"of {m['available_bytes'] / 1e9:.1f} GB")
+        else:
+            largest = ("-" if key not in m else
+                       f"{m['seeds']:,} seeds x {m['buffer_size']:,} slots: "
+                       f"{m[key] / 1e9:.2f} GB, estimate {ratio(m):.2f}x")
         return [[where, f"{r['bytes_per_slot']:.1f} / {r['slot_data_bytes']} "
                         f"({r['per_slot_over_data']:.2f}x)",
                  f"{r['bytes_per_seed'] / 1e6:.2f} / {r['seed_data_bytes'] / 1e6:.2f} MB "
