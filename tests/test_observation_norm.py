@@ -84,12 +84,16 @@ def test_every_network_sees_normalised_observations_and_no_gradient_reaches_the_
 
 
 def test_a_run_keeps_the_statistics_of_every_observation_acted_on_in_its_actors():
-    """4 environments x 12 iterations: 48 observations counted, in the last and the
-    delivered actor (which takes raw observations)."""
+    """4 environments x 12 iterations: 48 observations counted, in the last actor; the
+    delivered actor (which takes raw observations) holds the statistics of the observations
+    acted on up to the point it was kept at."""
     config = CONFIG.replace(num_envs=4, normalize_observations=True)
     runner, metrics = jax.jit(sac_jax.make_train(config))(jax.random.key(0))
     stats = runner.sac.actor_params[COLLECTION]
     assert float(stats["count"]) == config.total_steps
     assert np.all(np.asarray(observation_norm.std(stats)) > 0.05)
-    assert COLLECTION in runner.delivered.actor_params
+    kept = runner.delivered.actor_params[COLLECTION]
+    assert 0 < int(runner.delivered.env_steps) and (
+        float(kept["count"]) == int(runner.delivered.env_steps))
+    assert np.all(np.asarray(observation_norm.std(kept)) > 0.05)
     assert np.all(np.isfinite(np.asarray(metrics["eval_return"])))
