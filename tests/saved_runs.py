@@ -44,6 +44,16 @@ def trained_pendulum(out: str) -> str:
     return out
 
 
+def with_planted_delivered_actor(path: str) -> str:
+    """The run directory `path`, its checkpoint's delivered actor replaced by half the last
+    actor's parameters, so that the two policies differ (in a short run they may be one)."""
+    _, _, runner, position = run_checkpoint.load_checkpoint(path)
+    half = jax.tree_util.tree_map(lambda x: x / 2, runner.sac.actor_params)
+    planted = runner.replace(delivered=runner.delivered.replace(actor_params=half))
+    run_checkpoint.save_checkpoint(path, planted, position)
+    return path
+
+
 def untrained(out: str, env: str, seeds: int = 1, **overrides) -> str:
     """A run directory whose checkpoint is the freshly initialised state of `seeds` seeds on
     `env` (preset `fast` with `overrides`): only the initialisation is compiled."""

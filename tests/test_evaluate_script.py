@@ -16,7 +16,8 @@ import sac_jax
 from sac_jax import run_checkpoint, run_dir
 from sac_jax.train import agent_for
 from scripts import evaluate as evaluate_script
-from tests.saved_runs import damage_checkpoint, fails_in_one_line, trained_pendulum, untrained
+from tests.saved_runs import (damage_checkpoint, fails_in_one_line, trained_pendulum, untrained,
+                              with_planted_delivered_actor)
 
 PAIRED_TOLERANCE = 0.1
 """|ours - Gymnasium| per Pendulum-v1 episode from the same initial state (returns ~ -1e3):
@@ -28,7 +29,9 @@ checks the same dynamics to float64 rounding."""
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    return trained_pendulum(str(tmp_path_factory.mktemp("runs") / "pendulum"))
+    """A trained run whose delivered and last actors differ."""
+    return with_planted_delivered_actor(
+        trained_pendulum(str(tmp_path_factory.mktemp("runs") / "pendulum")))
 
 
 def _json(capsys, argv):
@@ -36,14 +39,17 @@ def _json(capsys, argv):
     return json.loads(capsys.readouterr().out)
 
 
-def test_ours_is_sac_evaluate_on_the_stored_parameters(run, capsys):
-    """The script's returns are those of the jitted `sac_jax.evaluate` on the delivered actor,
-    bit for bit (the same program on the same inputs); the mean is theirs to float64
-    rounding of a sum of 6 terms."""
-    result = _json(capsys, [run, "--which", "ours", "--episodes", "6", "--episode-seed", "3"])
+@pytest.mark.parametrize("policy", ["best", "last"])
+def test_ours_is_sac_evaluate_on_the_stored_parameters(run, capsys, policy):
+    """The script's returns are those of the jitted `sac_jax.evaluate` on the delivered actor
+    (on the last with `--policy last`), bit for bit (the same program on the same inputs);
+    the mean is theirs to float64 rounding of a sum of 6 terms."""
+    result = _json(capsys, [run, "--which", "ours", "--episodes", "6", "--episode-seed", "3",
+                            "--policy", policy])
     config, _, runner, _ = run_checkpoint.load_checkpoint(run)
     agent, env = agent_for(config)
-    params = jax.tree_util.tree_map(lambda x: x[0], runner.delivered.actor_params)
+    stored = runner.delivered if policy == "best" else runner.sac
+    params = jax.tree_util.tree_map(lambda x: x[0], stored.actor_params)
     expected = np.asarray(jax.jit(lambda params, key: sac_jax.evaluate(
         agent, env, params, key, 6))(params, jax.random.key(3)), np.float64)
     np.testing.assert_array_equal(result["ours"]["returns"], expected)

@@ -16,7 +16,8 @@ import sac_jax
 from sac_jax import checkpoint, legacy_checkpoint, run, run_checkpoint, run_dir
 from sac_jax.train import agent_for
 from scripts import train as train_script
-from tests.saved_runs import damage_checkpoint, trained_pendulum, untrained
+from tests.saved_runs import (damage_checkpoint, trained_pendulum, untrained,
+                              with_planted_delivered_actor)
 
 
 @pytest.fixture(scope="module")
@@ -59,10 +60,7 @@ def test_the_delivered_actor_by_default_the_last_one_on_request(tmp_path, runs):
     parameters, so the two policies differ; each loads its own."""
     path = str(tmp_path / "planted")
     shutil.copytree(runs["trained"], path)
-    _, _, runner, position = run_checkpoint.load_checkpoint(path)
-    half = jax.tree_util.tree_map(lambda x: x / 2, runner.sac.actor_params)
-    planted = runner.replace(delivered=runner.delivered.replace(actor_params=half))
-    run_checkpoint.save_checkpoint(path, planted, position)
+    with_planted_delivered_actor(path)
     obs = _observations(16)
     best, last = (sac_jax.load_policy(path, which=w) for w in ("best", "last"))
     assert (best.which, last.which) == ("best", "last")
