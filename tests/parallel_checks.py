@@ -339,15 +339,31 @@ def check_one_device() -> dict:
 
 
 def check_learning() -> dict:
-    """A data-parallel run of TRAIN_CONFIG over the 2 devices: its evaluation returns."""
+    """A data-parallel run of TRAIN_CONFIG over the 2 devices: its evaluation returns, and
+    its delivered actor's mean return over 10 episodes of Gymnasium's Pendulum-v1 (the
+    learner state, the delivered actor's included, is one for all devices: `DATA_AXES`)."""
+    import gymnasium
+
+    from sac_jax.saved_policy import SavedPolicy
+    from sac_jax.train import agent_for
+    from scripts.evaluate import gymnasium_returns
+
     mesh = parallel.make_mesh(parallel.DATA)
     runner, metrics = jax.device_get(
         jax.jit(parallel.make_data_parallel_train(TRAIN_CONFIG, mesh))(jax.random.key(0)))
     params = runner.sac.actor_params
+    policy = SavedPolicy(TRAIN_CONFIG, {}, 0, agent_for(TRAIN_CONFIG)[0],
+                         runner.delivered.actor_params)
+    env = gymnasium.make("Pendulum-v1")
+    try:
+        gymnasium_return = float(np.mean(gymnasium_returns(policy, env, 10, seed=123)))
+    finally:
+        env.close()
     return {"eval_return": metrics["eval_return"].tolist(),
             "env_steps": metrics["env_steps"].tolist(),
             "buffer_size": np.asarray(runner.buffer.size).tolist(),
-            "finite_params": bool(np.isfinite(max_abs(params)))}
+            "finite_params": bool(np.isfinite(max_abs(params))),
+            "gymnasium_return": gymnasium_return}
 
 
 def check_cached() -> dict:

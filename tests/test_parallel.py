@@ -82,10 +82,11 @@ def test_one_device_mesh_reproduces_make_train(checks):
 @pytest.mark.slow
 def test_data_parallel_training_learns_pendulum():
     """The pendulum preset (2 environments, 2 updates per iteration) spread over 2 devices
-    reaches the task's threshold of -250 (a random policy scores about -1200)."""
+    delivers a policy that reaches the task's threshold of -250 in Gymnasium's Pendulum-v1
+    (a random policy scores about -1200)."""
     check = run_parallel_checks("learning")["learning"]
     assert check["env_steps"][-1] == 11_000 and check["buffer_size"] == 5_500, check
-    assert check["eval_return"][-1] >= -250.0, check
+    assert check["gymnasium_return"] >= -250.0, check
     assert check["finite_params"]
 
 
