@@ -157,6 +157,28 @@ def test_a_full_disk_leaves_the_earlier_steps_and_nothing_half_written(run, tmp_
         subprocess.run(["umount", str(small)], check=False)
 
 
+def test_a_checkpoint_without_room_on_the_disk_is_refused_before_anything_is_written(
+        run, tmp_path, monkeypatch):
+    """The free-space check runs everywhere (the tmpfs test above needs root): with a byte
+    less free than the checkpoint may take, the write is refused in one line and the earlier
+    step stays the only one, whole."""
+    out, saved = run
+    copy = copied_run(out, tmp_path)
+    steps = run_checkpoint.saved_steps(copy)
+    need = sum(x.nbytes for x in run_checkpoint._stored(saved)[0]) + checkpoint.ROOM_FOR_METADATA
+    usage = shutil.disk_usage(copy)
+    monkeypatch.setattr(checkpoint.shutil, "disk_usage",
+                        lambda path: usage._replace(free=need - 1))
+    with pytest.raises(run_checkpoint.CheckpointWriteError,
+                       match=rf"^checkpoint of step {steps[-1] + 200} in .* could not be written "
+                             rf"\(No space left on device: the checkpoint needs up to "
+                             rf"{need / 1e6:.1f} MB, {(need - 1) / 1e6:.1f} MB are free\)$"):
+        run_checkpoint.save_checkpoint(copy, saved, Position(chunks_done=9,
+                                                             env_steps=steps[-1] + 200))
+    assert run_checkpoint.saved_steps(copy) == steps
+    run_checkpoint.load_checkpoint(copy)  # whole: it loads
+
+
 def test_a_checkpoint_that_cannot_be_written_ends_the_run_in_one_line(tmp_path, capsys,
                                                                       monkeypatch):
     """A full disk at the second checkpoint (the writer patched to fail as orbax does, leaving
