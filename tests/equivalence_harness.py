@@ -216,14 +216,16 @@ def params_of(state) -> Dict:
 
 
 def log_prob_tolerance(agent, action: np.ndarray, np_dtype) -> np.ndarray:
-    """Per sample 1e-6 + 2 ulp(1) * sum_i |d/dy log(scale (1 - y^2) + 1e-6)| at y_i = tanh(u_i):
-    the rounding of tanh (XLA's and PyTorch's float32 tanh differ by up to 1 ulp) carried
-    through the epsilon correction, whose derivative 2 scale y / (scale (1 - y^2) + 1e-6)
-    grows like cosh^2(u)."""
+    """Per sample 1e-6 + 3 ulp(1) * sum_i |d/dy log(scale (1 - y^2) + 1e-6)| at y_i = tanh(u_i):
+    the rounding of tanh carried through the epsilon correction, whose derivative
+    2 scale y / (scale (1 - y^2) + 1e-6) grows like cosh^2(u). XLA's float32 tanh is within
+    4.1 ulp and PyTorch's within 0.56 (docs/equivalence.md), so the two differ by up to about
+    4.7 ulp(y); 3 ulp(1) is 6 ulp(y) for |y| >= 1/2, where the derivative is largest. (At
+    2 ulp(1) the largest measured difference took 0.61 of the bound, SSE4.2 to AVX-512.)"""
     scale, bias = np.asarray(agent.action_scale, np.float64), np.asarray(agent.action_bias, np.float64)
     y = (np.asarray(action, np.float64) - bias) / scale
     condition = np.sum(2.0 * scale * np.abs(y) / (scale * (1.0 - y ** 2) + 1e-6), axis=-1)
-    return 1e-6 + 2.0 * np.finfo(np_dtype).eps * condition
+    return 1e-6 + 3.0 * np.finfo(np_dtype).eps * condition
 
 
 def run_torch(family: str, ref, data, dtype, start: int = 0):

@@ -17,7 +17,7 @@ so that it holds on any CPU (another GEMM kernel, summation order, FMA or not, v
     actions                       max abs <= max|scale| * N_actor 2^-23 (N_actor: the actor's
                                   fan-ins + 2 for mu + sigma eps; tanh's own error, <= 4.1 ulp in
                                   XLA, is far below that)
-    log-probs                     per sample <= 1e-6 + 2^-22 * sum_i |d/dy log(scale(1-y^2)+1e-6)|
+    log-probs                     per sample <= 1e-6 + 3 2^-23 sum_i |d/dy log(scale(1-y^2)+1e-6)|
                                   (`log_prob_tolerance`): the tanh error carried through the
                                   seeds' epsilon correction, whose derivative grows like cosh^2(u)
     losses, gradients             relative (per tensor max|diff| / max|ref|) <= N 2^-23
@@ -27,7 +27,8 @@ so that it holds on any CPU (another GEMM kernel, summation order, FMA or not, v
                                   has condition number up to |g's terms| / 1e-8 where g is near 0,
                                   so precision bounds nothing there; test_equivalence_x64.py checks
                                   it to 1e-10
-    200 updates                   a blow-up guard only (relative <= 1; see test_200_updates);
+    200 updates                   a blow-up guard only (relative <= 1, alpha <= 1e-3; see
+                                  test_200_updates);
                                   test_equivalence_x64.py checks the run to 1e-10
 float64 (test_equivalence_x64.py) brings every one of these to <= 1e-10, which shows the
 float32 residuals are rounding.
@@ -117,8 +118,9 @@ def test_200_updates(errors):
     gradient elements. The reference's own float32 run leaves its float64 run by 0.20 for
     cleanrl (the controls in `errors`). The same run in float64 agrees to <= 1e-10
     (test_equivalence_x64.py), which is the check of the algorithm; a NaN, an overflow or a
-    diverging float32 run fails here."""
+    diverging float32 run fails here. Alpha, one scalar driven by the batch's mean log-prob,
+    does not fan out (9e-6 to 1.1e-5 on AVX-512, AVX2 and SSE4.2 code): it is held to 1e-3."""
     family, e = errors
-    assert e["run_alpha"] <= 1.0, e
+    assert e["run_alpha"] <= 1e-3, e
     assert e["run_params"] <= 1.0, e
     assert e["run_params_jax32_vs_torch64"] <= 1.0, e

@@ -60,8 +60,9 @@ def test_float64_comparison_detects_a_planted_bug(float64_errors, mutation):
 
 
 def test_float32_loop_stays_with_the_reference():
-    """A blow-up guard, not a rounding bound (module docstring); the schedule exactly."""
+    """A blow-up guard, not a rounding bound (module docstring); the schedule exactly. Alpha,
+    one scalar, does not fan out as the parameters do (3.7e-6 on AVX-512 code): held to 1e-3."""
     e = measure("seed", "float32")
     _check_schedule("seed", e)
     assert e["params"] <= 1.0, e
-    assert e["alpha"] <= 1.0, e
+    assert e["alpha"] <= 1e-3, e
