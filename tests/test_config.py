@@ -1,5 +1,7 @@
 """SACConfig validation: every rule raises ValueError naming the field; presets are valid."""
 
+import dataclasses
+
 import pytest
 
 from sac_jax import PRESETS, SACConfig
@@ -114,7 +116,7 @@ def test_config_is_frozen_and_hashable():
     config = SACConfig(actor_hidden=[64, 64])  # a list from JSON or a CLI becomes a tuple
     assert config.actor_hidden == (64, 64)
     assert hash(config) == hash(SACConfig(actor_hidden=(64, 64)))
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         config.batch_size = 1
 
 

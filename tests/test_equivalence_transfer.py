@@ -115,8 +115,16 @@ def test_flax_to_torch(family):
                          _forward_torch(family, ref, obs, action), family)
 
 
-def test_shape_mismatch_is_refused():
+def test_a_layer_count_or_shape_mismatch_is_refused():
+    """Another preset's critic has another depth; a layer whose kernel lost a column has
+    another shape: both are refused by name, before a weight is copied."""
     ref = make_reference("cleanrl")
     params = transfer.to_flax(make_reference("pendulum").networks())
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="torch layers but .* Flax layers"):
         transfer.from_flax(ref.networks(), {"critic": params["critic"]})
+    own = transfer.to_flax(ref.networks())["critic"]
+    cut = jax.tree_util.tree_map(lambda x: x, own)  # a copy to cut
+    layers = next(iter(cut["params"].values()))
+    layers["Dense_0"]["kernel"] = np.asarray(layers["Dense_0"]["kernel"])[:, :-1]
+    with pytest.raises(ValueError, match=r"Dense_0: shapes \(\d+, \d+\), \(\d+,\) do not fit"):
+        transfer.from_flax(ref.networks(), {"critic": cut})

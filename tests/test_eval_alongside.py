@@ -10,7 +10,7 @@ import pytest
 
 import sac_jax
 from sac_jax.train import make_train
-from test_selection import replay_selection
+from tests.test_selection import replay_selection
 
 # Pendulum-v1 (200-step episodes), 4 environments, 75 iterations per evaluation: D = 3
 CONFIG = sac_jax.PRESETS["pendulum"].replace(

@@ -12,7 +12,7 @@ from sac_jax import selection
 from sac_jax.eval_point import EvalPoints
 from sac_jax.evaluation import evaluate_from
 from sac_jax.train import agent_for
-from test_eval_alongside import CONFIG  # Pendulum-v1, E = 7; D = 3 with eval_alongside
+from tests.test_eval_alongside import CONFIG  # Pendulum-v1, E = 7; D = 3, eval_alongside
 
 
 def test_a_points_batch_is_the_evaluations_then_the_confirmations_then_both_again():
