@@ -21,10 +21,11 @@
     the next, where 9 of 16 vmapped seeds reached 859.9 within 345,088).
     `--peer-from FILE` takes (a) from an earlier result of the same task instead of running it
     (recorded as `peer_from`: the file's command, date, machine and versions), for when both
-    sides do not fit one job's time limit, on a machine of the earlier job's device kind. With `--runs 0` the
-    one-seed side comes from that file too (recorded as `one_seed_from`), measured beside the
-    peer with the same preset, variant, seed, budget and margin, and this job runs only
-    `--seeds` seeds: for when even ours' two sides do not fit one job (AcrobotSwingup's).
+    sides do not fit one job's time limit, on a machine of the earlier job's device kind.
+    With `--runs 0` the one-seed side comes from that file too (recorded as `one_seed_from`),
+    measured beside the peer with the same preset, variant, seed, budget and margin, and this
+    job runs only `--seeds` seeds: for when even ours' two sides do not fit one job
+    (AcrobotSwingup's).
 
 Per run: wall time from the trainer's call, the evaluation points (env steps, return, seconds),
 and for ours the seconds and env steps at which every seed's delivered actor had reached the

@@ -453,8 +453,8 @@ def test_a_run_out_of_device_memory_ends_in_one_line_and_leaves_nothing(tmp_path
     RESOURCE_EXHAUSTED is one line naming it and the flags that shrink the run, exit 1, and
     the new run's directory, which holds no checkpoint, is removed. Each seed's observations
     take 24 GB (2 x 10^9 slots of Pendulum-v1's 3 float32), and there are enough seeds for that
-    one array to be twice this machine's memory, an allocation Linux refuses outright (where it is not set
-    to grant every one: vm.overcommit_memory 1)."""
+    one array to be twice this machine's memory, an allocation Linux refuses outright (where
+    it is not set to grant every one: vm.overcommit_memory 1)."""
     with open("/proc/sys/vm/overcommit_memory") as f:
         if f.read().strip() == "1":
             pytest.skip("every allocation is granted here: the run would be killed instead")
