@@ -15,8 +15,9 @@ made back to back (the machine's speed drifts between repeats). `followed_host_p
 direct measure: the share of the followed run's time that the host spends between chunks
 (finiteness check, progress, TensorBoard, checkpoint) while the device waits for the next
 chunk (`summary["host_s"]` of `run_training`), and waiting for the last writes at the end.
-On a CPU the figures of whole runs scatter by about 10% run to run, and the single scan and the chunked runs take different numerical paths
-(float rounding of two programs), so their evaluations can last different numbers of steps.
+On a CPU the figures of whole runs scatter by about 10% run to run, and the single scan and
+the chunked runs take different numerical paths (float rounding of two programs), so their
+evaluations can last different numbers of steps.
 
     python -m benchmarks.progress_overhead                  # the default preset, 1 seed
     python -m benchmarks.progress_overhead --preset pendulum --seeds 4 --repeats 5
