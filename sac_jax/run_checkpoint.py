@@ -65,14 +65,35 @@ def _filled(runner: RunnerState) -> int:
     return int(np.max(jax.device_get(runner.buffer.size)))
 
 
+def _host_replay(data, filled: int):
+    """The replay arrays (seeds, C, ...) cut to their first `filled` slots on the host: each
+    device's shard fetched as a view (the host's memory, on a CPU), cut, and the shards of a
+    seed axis split over several devices joined into one new array. (`jax.device_get` of a
+    split array assembles all C slots: 64 seeds of 200,000 slots over 2 CPU devices peaked
+    at 1,901 MB that way, against 1,446 MB on one device.)"""
+    def fetch(x):
+        if not isinstance(x, jax.Array):  # host arrays already (a loaded state)
+            return np.asarray(x)[:, :filled]
+        shards = {}
+        for shard in x.addressable_shards:  # one per device; replicas share an index
+            shards.setdefault(shard.index[0].start or 0, shard)
+        views = [np.asarray(shards[start].data)[:, :filled] for start in sorted(shards)]
+        return views[0] if len(views) == 1 else np.concatenate(views)
+    return jax.tree_util.tree_map(fetch, data)
+
+
 def _stored(runner: RunnerState, copy: bool = True) -> Tuple[list, int]:
     """(`checkpoint.to_host` leaves of the state to store, copies unless not `copy`; filled
     replay slots). A ring buffer fills its slots in order from slot 0 and the rest stay zero,
-    so only the filled slots [0, size) of the replay buffers are stored."""
+    so only the filled slots [0, size) of the replay buffers are stored, cut on the host (on
+    the device, a slice of a new length compiles a new program each time)."""
     filled = _filled(runner)
-    # cut on the host: on the device, a slice of a new length compiles a new program each time
-    runner = runner.replace(buffer=jax.device_get(runner.buffer))
-    return checkpoint.to_host(_buffer_filled_to(runner, filled), copy), filled
+    data = _host_replay(runner.buffer.data, filled)
+    leaves = checkpoint.to_host(runner.replace(buffer=runner.buffer.replace(data=data)), False)
+    if copy:  # the joined arrays are copies already
+        joined = {id(x) for x in jax.tree_util.tree_leaves(data) if x.base is None}
+        leaves = [x if id(x) in joined else np.array(x) for x in leaves]
+    return leaves, filled
 
 
 def _copy_bytes(runner: RunnerState) -> int:

@@ -393,9 +393,24 @@ def check_cached() -> dict:
             "devices": [len(out["x"].sharding.device_set) for out in outs]}
 
 
+def check_stored() -> dict:
+    """Replay arrays of 4 seeds split over the 2 devices, cut to 6 of their 10 slots for a
+    checkpoint (`run_checkpoint._host_replay`): whether they equal the whole array's first 6
+    slots, and whether each is one new array of just those slots."""
+    from sac_jax import run_checkpoint
+
+    mesh = parallel.make_mesh(parallel.SEEDS)
+    whole = jnp.arange(4 * 10 * 3, dtype=jnp.float32).reshape(4, 10, 3)
+    split = jax.device_put(whole, NamedSharding(mesh, P(parallel.SEEDS)))
+    stored = run_checkpoint._host_replay({"obs": split}, 6)["obs"]
+    return {"shards": len(split.addressable_shards), "shape": list(stored.shape),
+            "equal": bool(np.array_equal(stored, np.asarray(whole)[:, :6])),
+            "new_array": stored.base is None}
+
+
 CHECKS = {"updates": check_updates, "seeds": check_seeds, "separate": check_separate,
           "settings": check_settings, "one_device": check_one_device, "learning": check_learning,
-          "cached": check_cached}
+          "cached": check_cached, "stored": check_stored}
 FLOAT64_CHECKS = ("updates", "seeds", "separate", "settings", "one_device")
 
 

@@ -90,6 +90,14 @@ def test_data_parallel_training_learns_pendulum():
     assert check["finite_params"]
 
 
+def test_a_checkpoint_cuts_each_devices_replay_shard_without_assembling_the_buffer():
+    """Seeds split over 2 devices: the stored replay arrays are the filled slots of each
+    device's shard, joined in seed order into one new array (`jax.device_get` had assembled
+    all slots first: a whole replay buffer more at every checkpoint)."""
+    check = run_parallel_checks("stored")["stored"]
+    assert check == {"shards": 2, "shape": [4, 6, 3], "equal": True, "new_array": True}, check
+
+
 def test_one_seed_program_is_the_function_between_taking_and_restoring_the_seed_axis():
     """`over_seed_axis` for one seed gives what `jax.vmap` gives (integer arithmetic, so no
     rounding can differ): mapped parts keep their leading axis of 1, unmapped (None) parts stay
