@@ -22,8 +22,8 @@ from typing import (TYPE_CHECKING, Any, Dict, Literal, NoReturn, Optional, Seque
 import tyro
 from tyro import _errors
 
-from sac_jax import (compilation_cache, metric_writers, parallel, plots, run_checkpoint,
-                     tracking)
+from sac_jax import (compilation_cache, malloc_arenas, metric_writers, parallel, plots,
+                     run_checkpoint, tracking)
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
 
 if TYPE_CHECKING:
@@ -100,8 +100,11 @@ class LeaveNow(Exception):
 def run_main(main) -> None:
     """`sys.exit(main())`; on `LeaveNow`, `os._exit(code)` after flushing: an interpreter
     shutting down waits for the device's running computation (a minute, measured). When the
-    reader of standard output has gone (`... --help | head -3`), exit 1 without a traceback."""
+    reader of standard output has gone (`... --help | head -3`), exit 1 without a traceback.
+    Before `main`, the process's malloc arenas are capped (`sac_jax.malloc_arenas`)."""
     import os
+
+    malloc_arenas.cap_arenas()
 
     try:
         code = main()
