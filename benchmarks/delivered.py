@@ -38,9 +38,17 @@ from benchmarks.provenance import machine_kind, provenance, write_result
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+class TrainFailed(SystemExit):
+    """scripts/train.py exited non-zero: the command and the end of its stderr (`stderr`)."""
+
+    def __init__(self, argv: list, stderr: str):
+        super().__init__(f"{' '.join(argv)} failed:\n{stderr[-2000:]}")
+        self.stderr = stderr
+
+
 def train(out: str, *flags: str, cache_dir: str = None, env: dict = None) -> dict:
     """Runs the README's command into `out` (in `env`, default this process's environment); its
-    summary.json with the process's wall time."""
+    summary.json with the process's wall time. `TrainFailed` if the command fails."""
     argv = [sys.executable, os.path.join(ROOT, "scripts", "train.py"), "--out", out, *flags]
     if cache_dir:
         argv += ["--cache-dir", cache_dir]
@@ -48,7 +56,7 @@ def train(out: str, *flags: str, cache_dir: str = None, env: dict = None) -> dic
     proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - start
     if proc.returncode:
-        raise SystemExit(f"{' '.join(argv)} failed:\n{proc.stderr[-2000:]}")
+        raise TrainFailed(argv, proc.stderr)
     with open(os.path.join(out, "summary.json")) as f:
         return dict(json.load(f), process_wall_s=round(wall, 3))
 

@@ -27,17 +27,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
 import tempfile
 
 import jax
 
 import sac_jax
+from benchmarks.delivered import TrainFailed, train
 from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax import memory
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ACCELERATOR = jax.default_backend() != "cpu"
 
 
@@ -55,15 +53,13 @@ def peak(out: str, *flags: str, may_fail: bool = False) -> dict:
 
 
 def _peak(out: str, *flags: str, may_fail: bool = False) -> dict:
-    argv = [sys.executable, os.path.join(ROOT, "scripts", "train.py"), "--out", out, *flags]
     env = {k: v for k, v in os.environ.items() if k != "XLA_PYTHON_CLIENT_PREALLOCATE"}
-    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, env=env)
-    if proc.returncode and may_fail:
-        return {"failed": (proc.stderr.strip().splitlines() or [""])[-1][:500]}
-    if proc.returncode:
-        raise SystemExit(f"{' '.join(argv)} failed:\n{proc.stderr[-2000:]}")
-    with open(os.path.join(out, "summary.json")) as f:
-        summary = json.load(f)
+    try:
+        summary = train(out, *flags, env=env)
+    except TrainFailed as failed:
+        if not may_fail:
+            raise
+        return {"failed": (failed.stderr.strip().splitlines() or [""])[-1][:500]}
     return {key: summary[key] for key in ("peak_host_bytes", "peak_device_bytes",
                                           "memory_model_peak_bytes", "memory_model",
                                           "total_steps")}

@@ -88,3 +88,18 @@ def test_judging_a_task_without_a_gymnasium_twin_in_gymnasium_fails_in_one_line(
     assert exit_.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         "delivered: error: --judge gymnasium: playground/CartpoleBalance has no Gymnasium twin")
+
+
+def test_a_failed_training_process_is_one_error_its_memory_run_may_report(tmp_path):
+    """`delivered.train` raises `TrainFailed` with the script's stderr; the memory benchmark's
+    run that `may_fail` returns that stderr's last line instead (the script's own one-line
+    error for a flag it does not know)."""
+    from benchmarks import memory as memory_benchmark
+
+    with pytest.raises(delivered.TrainFailed) as failed:
+        delivered.train(str(tmp_path / "run"), "--no-such-flag")
+    assert "--no-such-flag" in failed.value.stderr
+    assert "failed:" in str(failed.value)
+    result = memory_benchmark._peak(str(tmp_path / "run"), "--no-such-flag", may_fail=True)
+    assert set(result) == {"failed"}
+    assert result["failed"] == failed.value.stderr.strip().splitlines()[-1][:500]
