@@ -16,9 +16,12 @@ import numpy as np
 import pytest
 
 import envs
+import jax
+import sac_jax
 from sac_jax import run_checkpoint
 from scripts import render as render_script
-from tests.saved_runs import fails_in_one_line, untrained
+from tests.saved_runs import (copied_run, fails_in_one_line, untrained,
+                              with_planted_delivered_actor)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -49,6 +52,25 @@ def test_pendulum_gif_frames_size_and_rate(runs, tmp_path, capsys):
     assert iio.immeta(out)["duration"] == 50  # ms: 1 / dt of Pendulum-v1 = 20 fps
     assert not np.array_equal(frames[0], frames[-1])
     assert sorted(os.listdir(tmp_path)) == ["swing.gif"]  # no temporary file left
+
+
+def test_policy_renders_the_delivered_or_the_last_actor(runs, tmp_path, capsys):
+    """--policy best draws the delivered actor's episode, --policy last the last update's: each
+    return printed is a rollout of that actor's own parameters, and their frames differ (the
+    delivered actor is planted, half the last one's parameters)."""
+    run = with_planted_delivered_actor(copied_run(runs["pendulum"], tmp_path))
+    frames = {}
+    for which in ("best", "last"):
+        out = str(tmp_path / f"{which}.gif")
+        argv = [run, "--out", out, "--steps", "12", "--width", "64", "--height", "48",
+                "--policy", which]
+        assert render_script.main(argv) == 0
+        policy = sac_jax.load_policy(run, 0, which)
+        _, total, _ = render_script.rollout(policy, policy.config.make_env(),
+                                            jax.random.key(0), 12)
+        assert capsys.readouterr().out.rstrip().endswith(f"return {total:.1f}")
+        frames[which] = _frames(out)
+    assert not np.array_equal(frames["best"], frames["last"])
 
 
 def test_pendulum_drawing_convention():
