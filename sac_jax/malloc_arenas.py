@@ -9,23 +9,31 @@ arenas instead of being reused, and the process's peak resident memory grows pas
 
     arenas  = ARENAS_PER_CORE * cores      (glibc: 8 * cores)
 
-Measured on 2 cores of an AMD EPYC (`fast`, 10,000 replay slots, 4,096 steps, a checkpoint at
-most every 0.5 s; peak RSS, `summary.json`'s peak_host_bytes, against `sac_jax.memory`'s
-estimate):
+Measured on 2 cores of an AMD EPYC (`fast`, 64 seeds of 10,000 replay slots; peak RSS,
+`summary.json`'s peak_host_bytes, and `sac_jax.memory`'s estimate over it):
 
-    64 seeds    glibc's 16 arenas 885-1,021 MB (estimate / peak 0.89-0.92; 3 runs),
-                4 arenas 784 MB (0.97-0.98; 2 runs), 2 arenas 720-729 MB (1.04-1.05; 3 runs)
-    1 seed      the README's command, cold: 732-780 MB (4 runs), 4 arenas 695-726 MB (4),
-                2 arenas 650-695 MB (7)
+    4,096 steps, a checkpoint at most every 0.5 s:
+        glibc's 16 arenas  885-1,021 MB (0.89-0.92; 3 runs)
+        4 arenas           784-788 MB (0.97-0.98; 2 runs)
+        2 arenas           720-729 MB (1.04-1.05; 3 runs)
+    the whole run (14,336 steps, a checkpoint at most every 5 s):
+        glibc's 16 arenas  1,067 MB (0.76; benchmarks/results/memory.json of 2026-11-30)
+        4 arenas           860-972 MB (0.88-0.91; 2 runs; 914 MB, 0.89, with a malloc_trim
+                           after each checkpoint's write)
+        2 arenas           790 MB (0.98; 1 run)
 
-Fewer arenas make threads wait for each other's allocations: with 2 (one per core) a cold
-compile of `fast` took a median 12.2 s against 11.4 s (7 alternated runs each), with 4 a median
-10.7 s (4 runs); training ran as fast with either. Hence 2 per core.
+Fewer arenas make threads wait for each other's allocations, and compiling is many threads'
+work: in 5 alternated pairs of cold runs of the README's command, 2 arenas compiled for a
+median 11.0 s against 10.3 s with 4 (1.2 s longer in the median pair), where 4 and glibc's 16
+compiled alike (10.7 s against 11.4 s, medians of 4 and 7 runs). Training ran as fast with
+either. Hence 2 per core: less memory than glibc's default at no cost in compile time (the
+README's command, 1 seed, peaked at 688-736 MB over those 5 runs, against 732-780 MB with 16
+arenas), where 1 per core would save more (639-655 MB) for a second of every cold start.
 
 Only the command-line scripts set it (`sac_jax.cli.run_main`): a library imported into a user's
 program leaves that program's allocator alone (the README's "Runs: watch, stop, resume" says
-how to set MALLOC_ARENA_MAX there). A MALLOC_ARENA_MAX in the environment, which glibc read at start,
-is the user's choice and is kept.
+how to set MALLOC_ARENA_MAX there). A MALLOC_ARENA_MAX in the environment, which glibc read at
+start, is the user's choice and is kept.
 """
 
 from __future__ import annotations
