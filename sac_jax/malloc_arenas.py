@@ -51,17 +51,18 @@ M_ARENA_MAX = -8
 def cap_arenas(per_core: int = ARENAS_PER_CORE) -> Optional[int]:
     """Caps this process's malloc arenas at `per_core` times the cores it may run on, for the
     threads that allocate from now on. Returns the cap, or None where none was set: a C library
-    other than glibc (macOS, musl), or MALLOC_ARENA_MAX set in the environment."""
+    other than glibc (macOS, Windows, musl), or MALLOC_ARENA_MAX set in the environment."""
     if per_core < 1:
         raise ValueError(f"per_core must be >= 1, got {per_core}")
     if os.environ.get("MALLOC_ARENA_MAX"):
         return None
     try:
-        if not (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc"):
-            return None
-        libc = ctypes.CDLL(None)  # the C library this process runs on
-    except (ValueError, OSError):  # no such name on this system; no C library to load
+        libc_version = os.confstr("CS_GNU_LIBC_VERSION") or ""
+    except (AttributeError, ValueError, OSError):  # no confstr (Windows); no such name (macOS)
         return None
+    if not libc_version.startswith("glibc"):
+        return None
+    libc = ctypes.CDLL(None)  # the C library this process runs on
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     cap = per_core * (cores or 1)
     return cap if libc.mallopt(M_ARENA_MAX, cap) == 1 else None

@@ -82,3 +82,20 @@ def test_run_main_caps_the_arenas_before_main(monkeypatch):
         cli.run_main(lambda: calls.append("main") or 0)
     assert stop.value.code == 0
     assert calls == ["cap", "main"]
+
+
+@pytest.mark.parametrize("confstr", [None, "unknown", "musl"])
+def test_no_cap_where_the_c_library_is_not_glibc(monkeypatch, confstr):
+    """Windows has no os.confstr, macOS no CS_GNU_LIBC_VERSION (ValueError), and another C
+    library another answer: nothing is set, and nothing fails."""
+    monkeypatch.delenv("MALLOC_ARENA_MAX", raising=False)
+    if confstr is None:
+        monkeypatch.delattr(os, "confstr", raising=False)
+    else:
+        def answer(name):
+            if confstr == "unknown":
+                raise ValueError("unrecognized configuration name")
+            return confstr
+        monkeypatch.setattr(os, "confstr", answer)
+    monkeypatch.setattr(malloc_arenas.ctypes, "CDLL", lambda *a: pytest.fail("loaded a libc"))
+    assert malloc_arenas.cap_arenas() is None
