@@ -13,7 +13,6 @@ glibc = pytest.mark.skipif(
     not (hasattr(os, "confstr") and (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc")),
     reason="malloc arenas are glibc's")
 
-THREADS = 12
 ARENAS = r"""
 import ctypes, json, os, sys, tempfile, threading
 from sac_jax import malloc_arenas
@@ -22,7 +21,8 @@ libc = ctypes.CDLL(None)
 libc.fopen.restype = ctypes.c_void_p
 per_core = int(sys.argv[1])
 cap = malloc_arenas.cap_arenas(per_core) if per_core else None
-threads = int(sys.argv[2])
+cores = len(os.sched_getaffinity(0))
+threads = 2 * cores + 2  # more than a cap of 1 per core, whatever the cores
 barrier = threading.Barrier(threads)
 held = []
 
@@ -43,13 +43,14 @@ libc.fclose(ctypes.c_void_p(stream))
 with open(path) as f:
     heaps = f.read().count("<heap nr=")
 os.remove(path)
-print(json.dumps({"cap": cap, "arenas": heaps, "cores": len(os.sched_getaffinity(0))}))
+print(json.dumps({"cap": cap, "arenas": heaps, "cores": cores}))
 """
 
 
 def arenas(per_core: int, **env) -> dict:
-    """A fresh process's arenas after THREADS threads allocated (per_core 0: no cap)."""
-    return run_json(["-c", ARENAS, str(per_core), str(THREADS)], **env)
+    """A fresh process's arenas after 2 threads per core, and 2 more, allocated at once
+    (per_core 0: no cap)."""
+    return run_json(["-c", ARENAS, str(per_core)], **env)
 
 
 @glibc
