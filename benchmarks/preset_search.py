@@ -77,7 +77,8 @@ def main() -> None:
                                                   args.fresh_episodes, json.dumps(variant)))
         rows.append(row)
         print(f"{json.dumps(variant)}: delivered mean {row['delivered_mean']}, min "
-              f"{row['delivered_min']} (fresh episodes: mean {row['fresh_mean']}) after "
+              f"{row['delivered_min']} (fresh episodes: mean {row['fresh_mean']}, per seed "
+              f"{row['fresh']}) after "
               f"{row['env_steps']:,} steps, {row['wall_s']} s, all at the target "
               f"{row['all_reached']}; "
               f"curve {row['curve'][::max(1, len(row['curve']) // 8)]}", flush=True)
