@@ -150,11 +150,14 @@ def _optimizers(hyperparams: Hyperparams) -> dict:
 def make_agent(config: SACConfig, observation_size: int, action_size: int,
                action_low, action_high) -> Agent:
     """An `Agent` for observations of size O and actions of size A in [low, high] (each (A,))."""
-    def bounds(values) -> tuple:
-        return tuple(float(x) for x in np.broadcast_to(np.asarray(values, np.float64),
-                                                       (action_size,)))
+    def bounds(name: str, values) -> tuple:
+        values = np.asarray(values, np.float64)
+        if values.size not in (1, action_size) or values.ndim > 1:
+            raise ValueError(f"{name} has shape {values.shape}, expected a scalar or "
+                             f"({action_size},) for action_size={action_size}")
+        return tuple(float(x) for x in np.broadcast_to(values.ravel(), (action_size,)))
 
-    low, high = bounds(action_low), bounds(action_high)
+    low, high = bounds("action_low", action_low), bounds("action_high", action_high)
     if not all(math.isfinite(l) and math.isfinite(h) and l < h for l, h in zip(low, high)):
         raise ValueError(f"action bounds must be finite with low < high, got low={low}, "
                          f"high={high}")

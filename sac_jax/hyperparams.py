@@ -20,6 +20,7 @@ counts, network shapes, choices) shapes the program: one program per value.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
@@ -76,10 +77,13 @@ def stack(configs: Sequence[SACConfig]) -> Dict[str, jax.Array]:
     if not configs:
         raise ValueError("stack: no configs")
     base = configs[0]
-    for config in configs[1:]:
-        if config.replace(**{name: getattr(base, name) for name in NAMES}) != base:
-            raise ValueError("stack: the configs differ in fields other than "
-                             f"{list(NAMES)}; one program cannot train them")
+    for i, config in enumerate(configs[1:], 1):
+        for field in dataclasses.fields(base):
+            name, value = field.name, getattr(config, field.name)
+            if name not in NAMES and value != getattr(base, name):
+                raise ValueError(f"stack: configs[{i}].{name}={value!r} differs from "
+                                 f"configs[0]'s {getattr(base, name)!r}; one program trains "
+                                 f"settings that differ only in {', '.join(NAMES)}")
     action_size = base.make_env().action_size
     each = [of_config(config, action_size) for config in configs]
     return {name: jnp.asarray(values)  # JAX's default float: float32 (float64 with x64)

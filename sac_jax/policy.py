@@ -8,7 +8,8 @@ The Jacobian term is, per `correction`:
     "exact":   log scale + log(1 - tanh(u)^2) computed stably as 2(log 2 - u - softplus(-2u))
                (distrax's `Tanh` bijector after a `ScalarAffine`);
     "epsilon": log(scale * (1 - tanh(u)^2) + 1e-6), as the PyTorch seeds write it. It stays finite
-               when tanh saturates in float32 but biases log pi upwards there.
+               when tanh saturates in float32 but biases log pi downwards there (the
+               subtracted term is larger), so the entropy is overestimated.
 """
 
 from __future__ import annotations

@@ -182,6 +182,21 @@ def sample_noise(agent: Agent, key: jax.Array, batch_size: int) -> Dict[str, jax
             "temperature": jax.random.normal(keys[3], (k,) + shape)}
 
 
+def _check_noise(agent: Agent, noise: Dict[str, jax.Array], batch_size: int) -> None:
+    """ValueError naming the first entry of `noise` that `agent.config`'s update reads and that
+    is missing or not shaped as `sample_noise` draws it."""
+    k, shape = agent.config.policy_frequency, (batch_size, agent.action_size)
+    expected = {"critic": shape, "value": shape, "actor": (k,) + shape,
+                "temperature": (k,) + shape}
+    used = {"critic": ("critic",), "value": ("value",), "actor": ("actor", "temperature")}
+    for name in (n for block in agent.config.update_order for n in used[block]):
+        if name not in noise:
+            raise ValueError(f'noise has no "{name}" entry (it has {sorted(noise)})')
+        if tuple(noise[name].shape) != expected[name]:
+            raise ValueError(f'noise["{name}"] has shape {tuple(noise[name].shape)}, expected '
+                             f"{expected[name]}")
+
+
 def _actor_block(agent: Agent, state: SACState, obs: jax.Array, noise) -> Tuple[SACState, Metrics]:
     """K actor steps, each followed by a temperature step when alpha is learned; metrics of the
     last step."""
@@ -215,8 +230,11 @@ def sac_update(agent: Agent, state: SACState, batch: Transition,
     """
     cfg = agent.config
     batch_size = batch.obs.shape[0]
-    noise = (key_or_noise if isinstance(key_or_noise, dict)
-             else sample_noise(agent, key_or_noise, batch_size))
+    if isinstance(key_or_noise, dict):
+        _check_noise(agent, key_or_noise, batch_size)
+        noise = key_or_noise
+    else:
+        noise = sample_noise(agent, key_or_noise, batch_size)
     count = state.step + 1
     metrics: Metrics = {}
     for name in cfg.update_order:

@@ -5,6 +5,7 @@ import jax
 import jax.extend
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from sac_jax import PRESETS
 from sac_jax.networks import MLP
@@ -83,3 +84,55 @@ def test_critic_layer_norm_normalises_each_hidden_layer_after_its_relu():
         np.testing.assert_allclose(q[i], by_hand(i), rtol=1e-5, atol=1e-5)
     plain = agent_for(PRESETS["fast"])[0].init(jax.random.key(0)).critic_params
     assert "LayerNorm" not in str(jax.tree_util.tree_structure(plain))
+
+
+def _dense_layers(state):
+    """(path, kernel (..., fan_in, fan_out), bias) of every Dense layer of the actor, the
+    critics (a leading axis N) and, for v1, the value network."""
+    for field in ("actor_params", "critic_params", "value_params"):
+        params = getattr(state, field)
+        if params is None:
+            continue
+        flat = {jax.tree_util.keystr(path): x
+                for path, x in jax.tree_util.tree_flatten_with_path(params)[0]}
+        for path, kernel in flat.items():
+            if path.endswith("['kernel']"):
+                yield field + path[:-len("['kernel']")], np.asarray(kernel), np.asarray(
+                    flat[path[:-len("['kernel']")] + "['bias']"])
+
+
+@pytest.mark.parametrize("preset", ["fast", "cleanrl", "pendulum", "v1"])
+def test_every_layer_is_drawn_from_its_initializer(preset):
+    """Per Dense layer (fan_in x fan_out; these tasks have one action, so the output layers, Q,
+    V, mean and log std, are those of width 1): "torch" U(+-1/sqrt(fan_in)) for kernel and
+    bias; "xavier" U(+-sqrt(6 / (fan_in + fan_out))) kernels and zero biases; "flax"
+    lecun-normal kernels (std 1/sqrt(fan_in)) and zero biases; `last_layer_init=c` U(+-c) for
+    an output layer's kernel and bias. A uniform draw of 64 or more values comes within 20 % of
+    its bound; the critics are drawn independently."""
+    config = PRESETS[preset]
+    state = agent_for(config)[0].init(jax.random.key(0))
+    layers = list(_dense_layers(state))
+    assert len(layers) >= 5, [path for path, _, _ in layers]
+
+    def uniform(x, bound, path):
+        assert np.abs(x).max() <= bound * (1 + 1e-6), (path, np.abs(x).max(), bound)
+        if x.size >= 64:
+            assert np.abs(x).max() >= 0.8 * bound, (path, np.abs(x).max(), bound)
+
+    for path, kernel, bias in layers:
+        fan_in, fan_out = kernel.shape[-2:]
+        if fan_out == 1 and config.last_layer_init is not None:
+            uniform(kernel, config.last_layer_init, path)
+            uniform(bias, config.last_layer_init, path)
+        elif config.init == "torch":
+            uniform(kernel, fan_in ** -0.5, path)
+            uniform(bias, fan_in ** -0.5, path)
+        elif config.init == "xavier":
+            uniform(kernel, (6 / (fan_in + fan_out)) ** 0.5, path)
+            assert not bias.any(), path
+        else:
+            assert config.init == "flax"
+            np.testing.assert_allclose(kernel.std(), fan_in ** -0.5, rtol=0.25, err_msg=path)
+            assert not bias.any(), path
+        if path.startswith("critic_params"):
+            assert not np.array_equal(kernel[0], kernel[1]), path

@@ -156,6 +156,29 @@ def test_noise_of_the_wrong_shape_is_rejected():
         sac_jax.update_actor(agent, state, _batch().obs, jnp.zeros((B + 1, 1)))
 
 
+def test_noise_dict_of_the_wrong_shape_or_missing_an_entry_is_rejected():
+    """A dict of noise holds K = policy_frequency actor steps' draws, (K, B, A): with 1 or 3
+    of them for K = 2 the actor block would run 1 or 3 steps instead of 2."""
+    config = CONFIG.replace(policy_frequency=2)
+    agent = _agent(config)
+    state = agent.init(jax.random.key(0))
+    good = sac_jax.sample_noise(agent, jax.random.key(1), B)
+    assert good["actor"].shape == (2, B, 1)
+    sac_jax.sac_update(agent, state, _batch(), good)
+    for k in (1, 3):
+        bad = dict(good, actor=jnp.zeros((k, B, 1)))
+        with pytest.raises(ValueError, match=rf'noise\["actor"\] has shape \({k}, {B}, 1\), '
+                                             rf"expected \(2, {B}, 1\)"):
+            sac_jax.sac_update(agent, state, _batch(), bad)
+    with pytest.raises(ValueError, match='noise has no "temperature" entry'):
+        sac_jax.sac_update(agent, state, _batch(), {n: good[n] for n in ("critic", "actor")})
+
+
 def test_make_agent_rejects_bad_bounds():
     with pytest.raises(ValueError, match="action bounds"):
         sac_jax.make_agent(CONFIG, 3, 1, action_low=1.0, action_high=-1.0)
+    with pytest.raises(ValueError, match=r"action_low has shape \(3,\), expected a scalar or "
+                                         r"\(2,\) for action_size=2"):
+        sac_jax.make_agent(CONFIG, 3, 2, action_low=[-1.0, -1.0, -1.0], action_high=1.0)
+    with pytest.raises(ValueError, match=r"action_high has shape \(1, 2\)"):
+        sac_jax.make_agent(CONFIG, 3, 2, action_low=-1.0, action_high=[[1.0, 1.0]])
