@@ -91,7 +91,8 @@ def test_a_sweep_equals_separate_runs_of_its_settings(float64_checks):
 def test_hyperparams_stack_refuses_configs_of_different_programs():
     """Settings that change a shape cannot share one program: one line naming the rule."""
     with pytest.raises(ValueError,
-                       match=r"^stack: configs\[1\].batch_size=32 differs from configs\[0\]'s 64; "):
+                       match=r"^stack: configs\[1\].batch_size=32 differs from "
+                             r"configs\[0\]'s 64; "):
         sac_jax.hyperparams.stack([CONFIG, CONFIG.replace(batch_size=32)])
     with pytest.raises(ValueError, match="no configs"):
         sac_jax.hyperparams.stack([])
