@@ -343,11 +343,10 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         host_start = time.perf_counter()  # the device waits from here to the next chunk
         position.run_s = host_start - start
         steps = int(runner.iteration) * config.num_envs
+        # a state gone non-finite ends the run after this chunk's point is followed and saved:
+        # its delivered actors were selected by finite evaluations, and are what it hands over
         message = _non_finite(config, runner, seeds, position, (start_steps, steps),
                               stop_on_non_finite)
-        if message:
-            status = NON_FINITE
-            break
         reached = new_points > points
         if reached:
             points = new_points
@@ -358,10 +357,13 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                 on_point(step, means, returns, position.run_s)
         stop = should_stop is not None and should_stop()
         position.env_steps = steps
-        position.ends_run = bool(stop or finished(runner) or all_stopped(runner))
-        if on_checkpoint is not None and (reached or stop):  # the last chunk ends a period
-            on_checkpoint(runner, position)
+        position.ends_run = bool(message or stop or finished(runner) or all_stopped(runner))
+        if on_checkpoint is not None and (reached or stop or message):  # the last chunk ends
+            on_checkpoint(runner, position)  # a period
         position.host_s += time.perf_counter() - host_start
+        if message:
+            status = NON_FINITE
+            break
         if stop and not finished(runner):
             status, message = INTERRUPTED, f"stopped at environment step {steps}"
             break
@@ -389,11 +391,18 @@ def _non_finite(config: SACConfig, runner: RunnerState, seeds: int, position: Po
     if not codes.any():
         return ""
     if stop:
-        bad = non_finite_name(runner.sac, codes, non_finite_fields(config))
-        return "non-finite {} between environment steps {} and {}".format(bad, *chunk_steps)
+        return "non-finite {} between environment steps {} and {}".format(
+            non_finite_state(config, runner, seeds), *chunk_steps)
     for run in np.flatnonzero(codes):
         position.non_finite.setdefault(int(run), chunk_steps[1])
     return ""
+
+
+def non_finite_state(config: SACConfig, runner: RunnerState, seeds: int) -> Optional[str]:
+    """What went non-finite first in `runner` (of `seeds` runs), e.g. "log_alpha of seed 1",
+    from its sticky per-seed codes (`RunnerState.non_finite`); None if every seed is finite."""
+    codes = np.broadcast_to(jax.device_get(runner.non_finite), (seeds,))
+    return non_finite_name(runner.sac, codes, non_finite_fields(config)) if codes.any() else None
 
 
 def _run_metrics(config: SACConfig, runner: RunnerState, position: Position, points: int
@@ -422,7 +431,6 @@ def run_summary(config: SACConfig, metrics: Dict[str, np.ndarray], points: int, 
     threshold = envs.spec(config.env).solved_return
     steps = metrics["env_steps"][0, :points]
     before_training = position.startup_s + position.compile_s
-    # a point reached in the chunk that a non-finite state ended was never followed: no time
     walls = {k: round(v, 3) for k, v in position.walls.items()}
     wall = lambda step: walls.get(step)
     process = lambda step: None if wall(step) is None else round(before_training + wall(step), 3)

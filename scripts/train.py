@@ -17,8 +17,9 @@ Ctrl-C or SIGTERM stops after the current chunk of the compiled loop, saves a ch
 summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s after the first,
 stops at once, keeping the last checkpoint); `--resume` continues it to the same result as an
 uninterrupted run (a run killed after its last checkpoint gets its result files). A non-finite
-parameter stops the run (exit 1) and keeps the last good checkpoint; so does a checkpoint that
-cannot be written (e.g. a full disk), or W&B failing (with --track). A damaged checkpoint is
+parameter stops the run (exit 1), saving its state with the delivered actors (a resume of it is
+refused: it would repeat the same updates). A checkpoint that cannot be written (e.g. a full
+disk), or W&B failing (with --track), stops it keeping the last good checkpoint. A damaged checkpoint is
 refused (exit 2), naming an intact earlier one to resume from with `--resume-step`. Bad input,
 or a run that cannot fit in memory, ends with one line on stderr and exit 2, before anything
 is written.
@@ -46,7 +47,7 @@ import sac_jax  # noqa: E402
 from sac_jax.config import SACConfig  # noqa: E402
 from sac_jax.presets import DEFAULT_PRESET, PRESETS  # noqa: E402
 from sac_jax import memory, parallel, run_checkpoint, run_dir, tracking  # noqa: E402
-from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy  # noqa: E402
+from sac_jax.run import FINISHED, INTERRUPTED, DeviceBusy, non_finite_state  # noqa: E402
 from sac_jax.cli import (EXIT_CODES, PresetName, RunFailed, StopRequest,  # noqa: E402
                          after_failure, check_resume_flags, device_split, fail, kept,
                          parse_with_preset, positive, prng_seed, run_main, train_in_dir)
@@ -120,6 +121,12 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> TrainArgs:
     return args
 
 
+NON_FINITE_ADVICE = ("resuming would repeat the same updates: train anew with other settings, "
+                     "e.g. lower learning rates")
+"""What a run that stopped on a non-finite state can do next: a resumed run keeps its
+configuration and is deterministic."""
+
+
 def _new_run(args: TrainArgs):
     """(config, run info, run directory, memory line) of a fresh run; the directory is created
     last, once every input is known to be good and the run to fit in memory. ValueError on bad
@@ -156,6 +163,10 @@ def _resumed_run(args: TrainArgs):
     config, info, state, position = run_checkpoint.load_checkpoint(args.resume, args.resume_step)
     if run_dir.results_written(args.resume):  # else a finished state gets its result files
         raise ValueError(f"--resume={args.resume}: this run already finished")
+    bad = non_finite_state(config, state, info.runs)
+    if bad is not None:  # its next chunk would stop on it again
+        raise ValueError(f"--resume={args.resume}: the state at step {position.env_steps} holds "
+                         f"a non-finite {bad}; {NON_FINITE_ADVICE}")
     return config, info, args.resume, (state, position), fits
 
 
@@ -232,7 +243,10 @@ def main(argv=None) -> int:
         print(f"{result.message}; checkpoint saved: continue with --resume {out}",
               file=sys.stderr, flush=True)
         return code
-    print(f"error: {result.message}; {kept(out)}", file=sys.stderr, flush=True)
+    steps = run_checkpoint.saved_steps(out)  # non-finite: the run saved its state as it ended
+    saved = (f"its delivered policy is saved with the state at step {steps[-1]}" if steps
+             else "no checkpoint was written")
+    print(f"error: {result.message}; {saved}; {NON_FINITE_ADVICE}", file=sys.stderr, flush=True)
     return 1
 
 

@@ -1,7 +1,7 @@
 """scripts/train.py: bad input ends with one line naming the problem and exit code 2, before
 anything is compiled or written; the run directory; a signal saves a checkpoint and `--resume`
-ends exactly where an uninterrupted run does; a non-finite state stops the run and keeps the
-last good checkpoint; the progress line."""
+ends exactly where an uninterrupted run does; a non-finite state stops the run, saving the
+delivered actors its summary describes; the progress line."""
 
 import csv
 import dataclasses
@@ -148,9 +148,10 @@ def _metrics(path):
         return [{k: v for k, v in row.items() if k not in TIMING} for row in csv.DictReader(f)]
 
 
-def _checkpoint_arrays(path):
-    """The leaves of the newest checkpoint's state, PRNG keys as their key data."""
-    _, _, state, _ = run_checkpoint.load_checkpoint(path)
+def _checkpoint_arrays(path, step=None):
+    """The leaves of the checkpoint's state at `step` (default the newest), PRNG keys as their
+    key data."""
+    _, _, state, _ = run_checkpoint.load_checkpoint(path, step)
     return [np.asarray(jax.random.key_data(x)) if jax.dtypes.issubdtype(
         x.dtype, jax.dtypes.prng_key) else np.asarray(x) for x in jax.tree_util.tree_leaves(state)]
 
@@ -330,7 +331,11 @@ def test_a_run_killed_after_its_last_checkpoint_gets_its_result_files_on_resume(
     assert os.path.exists(os.path.join(killed, "curves.png"))
 
 
-def test_a_non_finite_state_stops_the_run_and_keeps_the_last_good_checkpoint(runs, capsys):
+def test_a_non_finite_state_stops_the_run_and_saves_what_its_summary_describes(runs, capsys):
+    """A state gone non-finite ends the run after the chunk's point: the state is saved with
+    the delivered actors that summary.json describes (finite: finite evaluations selected
+    them), the good checkpoint before it is kept unchanged, and a resume of the non-finite
+    state, which would stop again at once, is refused in one line."""
     diverging = str(runs["root"] / "diverging")
     shutil.copytree(runs["interrupted"], diverging)
     config_path = os.path.join(diverging, "config.json")
@@ -342,11 +347,23 @@ def test_a_non_finite_state_stops_the_run_and_keeps_the_last_good_checkpoint(run
     # the critic's targets overflow first; the actor, which reads the critic, follows in the
     # same update and comes first in the state's order: the first to go non-finite is named
     assert err.startswith("error: non-finite critic_") and "of seed 0 between environment steps 2000 and 3000" in err
-    assert "the last checkpoint written (step 2000) is kept" in err and "\n" not in err
-    assert run_checkpoint.saved_steps(diverging) == [2000]
-    for a, b in zip(_checkpoint_arrays(diverging), good, strict=True):
+    assert ("its delivered policy is saved with the state at step 3000; resuming would repeat "
+            "the same updates: train anew with other settings") in err and "\n" not in err
+    assert run_checkpoint.saved_steps(diverging) == [2000, 3000]
+    for a, b in zip(_checkpoint_arrays(diverging, 2000), good, strict=True):
         np.testing.assert_array_equal(a, b)
-    assert json.load(open(os.path.join(diverging, "summary.json")))["status"] == "non-finite"
+    summary = json.load(open(os.path.join(diverging, "summary.json")))
+    assert summary["status"] == "non-finite" and summary["total_steps"] == 3000
+    _, _, state, _ = run_checkpoint.load_checkpoint(diverging)
+    assert summary["delivered_at_step"] == [int(s) for s in np.ravel(state.delivered.env_steps)]
+    assert all(np.isfinite(x).all() for x in jax.tree_util.tree_leaves(
+        state.delivered.actor_params))
+    assert not all(np.isfinite(x).all() for x in jax.tree_util.tree_leaves(state.sac))
+    assert train_script.main(["--resume", diverging]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: --resume={diverging}: the state at step 3000 holds a "
+                          "non-finite critic_") and "\n" not in err, err
+    assert run_checkpoint.saved_steps(diverging) == [2000, 3000]  # nothing written
 
 
 def test_track_without_wandb_ends_with_one_line_and_writes_nothing(tmp_path, capsys,
