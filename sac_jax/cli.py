@@ -12,6 +12,7 @@ tests/test_cli.py checks every kind of report.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import shutil
 import signal
@@ -24,6 +25,7 @@ from tyro import _errors
 
 from sac_jax import (compilation_cache, malloc_arenas, metric_writers, parallel, plots,
                      run_checkpoint, tracking)
+from sac_jax.messages import first_line, os_reason
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
 
 if TYPE_CHECKING:
@@ -265,8 +267,9 @@ def write_results(out: str, config, preset: str, result: RunResult) -> None:
 
 
 class RunFailed(Exception):
-    """What a run cannot go on from, as one line: a checkpoint that cannot be written (e.g. a
-    full disk), W&B failing (no login, no network), or device memory exhausted."""
+    """What a run cannot go on from, as one line: a checkpoint, TensorBoard's records or the
+    result files that cannot be written (e.g. a full disk), W&B failing (no login, no
+    network), or device memory exhausted."""
 
 
 def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settings, resume,
@@ -287,17 +290,19 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
     from sac_jax.run import FINISHED, INTERRUPTED, evaluation_points, run_training
 
     history = evaluation_points(config, resume[0]) if resume else []  # the points done
-    tensorboard = metric_writers.TensorBoard(out, history)
+    with _written("TensorBoard's records"):
+        tensorboard = metric_writers.TensorBoard(out, history)
     wandb_run = tracking.follow(out, tracked, history)
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, runs, elapsed, config.run_steps), flush=True)
-        tensorboard.add_point(step, means, eval_returns)
+        with _written("TensorBoard's records"):  # raises what failed on its thread
+            tensorboard.add_point(step, means, eval_returns)
         if wandb_run is not None:
             try:  # raises what failed on its thread since the last point
                 wandb_run.add_point(step, means, eval_returns)
             except Exception as error:
-                raise RunFailed(f"W&B: {_why(error)}") from None
+                raise RunFailed(f"W&B: {first_line(error)}") from None
 
     checkpoints = run_checkpoint.CheckpointWriter(out)
     notice = stop.notice = CompileNotice()
@@ -311,7 +316,8 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
         finally:
             notice.close()
             try:
-                tensorboard.close()
+                with _written("TensorBoard's records"):
+                    tensorboard.close()
             finally:  # waits for the checkpoint under way, even if a signal came first
                 checkpoints.close()
     except run_checkpoint.CheckpointWriteError as error:
@@ -320,28 +326,34 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
         if "RESOURCE_EXHAUSTED" not in str(error):
             raise
         raise RunFailed(f"out of memory on {jax.local_devices()[0].platform} "
-                        f"({first_line(error)}): lower --buffer-size or --seeds") from None
-    write_results(out, config, preset, result)
+                        f"({_xla_reason(error)}): lower --buffer-size or --seeds") from None
+    with _written("the result files"):  # the state is saved: a resume writes them again
+        write_results(out, config, preset, result)
     code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
     if wandb_run is not None:
         try:  # the run and its files are whole: W&B failing now costs only its own record
             wandb_run.finish(dict(result.summary, preset=preset), code)
         except Exception as error:
-            print(f"warning: W&B: {_why(error)}; the run's results are in {out}",
+            print(f"warning: W&B: {first_line(error)}; the run's results are in {out}",
                   file=sys.stderr, flush=True)
     return result, code
 
 
-def _why(error: Exception) -> str:
-    """The first line of what W&B raised (its type's name if it has no message)."""
-    return (str(error).strip().splitlines() or [type(error).__name__])[0][:200]
+@contextlib.contextmanager
+def _written(what: str):
+    """`RunFailed` naming `what` and the system's reason for an OSError the block raises (a
+    full disk, a directory made read-only)."""
+    try:
+        yield
+    except OSError as error:
+        where = f" ({error.filename})" if error.filename else ""
+        raise RunFailed(f"{what} could not be written{where}: {os_reason(error)}") from None
 
 
-def first_line(error: Exception) -> str:
+def _xla_reason(error: Exception) -> str:
     """The first line of an XLA error, without its status code: "Out of memory while trying
     to allocate 5.26GiB with allocator GPU_0_bfc on device 0"."""
-    line = str(error).strip().splitlines()[0]
-    return line.split(": ", 1)[-1].split(" [", 1)[0][:200]
+    return first_line(error).split(": ", 1)[-1].split(" [", 1)[0]
 
 
 def kept(out: str, resume: Optional[str] = None) -> str:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import collections
 import math
 import os
-import re
 import threading
 import time
 from typing import Callable, List, Optional, Tuple
@@ -22,6 +21,7 @@ import numpy as np
 from sac_jax import checkpoint, legacy_checkpoint, memory
 from sac_jax.background import BackgroundWrites
 from sac_jax.config import SACConfig
+from sac_jax.messages import os_reason
 from sac_jax.position import Position
 from sac_jax.run_dir import RunInfo, read_config, state_template
 from sac_jax.train import RunnerState
@@ -129,16 +129,7 @@ def _write(run_dir: str, leaves: list, filled: int, position: Position) -> None:
     except Exception as error:  # OSError, or tensorstore's ValueError naming the OS error
         checkpoint.remove_partial(where)
         raise CheckpointWriteError(f"checkpoint of step {position.env_steps} in {where} "
-                                   f"could not be written ({_reason(error)})") from None
-
-
-def _reason(error: Exception) -> str:
-    """The operating system's words for a failed write: OSError's, or those of the
-    `[os_error_code='N']` that tensorstore's errors end with; else the error's first line."""
-    if isinstance(error, OSError) and error.strerror:
-        return error.strerror
-    code = re.search(r"os_error_code='(\d+)'", str(error))
-    return os.strerror(int(code.group(1))) if code else str(error).splitlines()[0][:200]
+                                   f"could not be written ({os_reason(error)})") from None
 
 
 def save_checkpoint(run_dir: str, runner: RunnerState, position: Position) -> None:

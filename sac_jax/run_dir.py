@@ -63,12 +63,17 @@ def write_json(path: str, obj) -> None:
     write_file(path, (json.dumps(obj, indent=2) + "\n").encode())
 
 
+def check_new(out: str) -> None:
+    """`RunDirError` (one line) if `out` exists: a new run or sweep writes nothing into it."""
+    if os.path.exists(out):
+        raise RunDirError(f"--out={out}: already exists; choose a new directory")
+
+
 def create_directory(out: str, files: Dict[str, object]) -> None:
     """Creates the directory `out` holding the JSON `files` {name: object}: made under a
     temporary name and renamed, so it is whole or absent. Raises `RunDirError` (one line) if
     `out` exists (nothing in it is touched) or cannot be created or written."""
-    if os.path.exists(out):
-        raise RunDirError(f"--out={out}: already exists; choose a new directory")
+    check_new(out)
     parent = os.path.dirname(os.path.abspath(out))
     if os.path.exists(parent) and not os.path.isdir(parent):
         raise RunDirError(f"--out={out}: {parent} is not a directory")

@@ -39,6 +39,7 @@ import sac_jax
 from envs.pendulum import PendulumData
 from sac_jax import run_dir
 from sac_jax.evaluation import initial_states
+from sac_jax.messages import first_line
 from sac_jax.cli import MissingDependency, fail, parse, positive, prng_seed, run_main
 
 GYMNASIUM_MISSING = 'Gymnasium is not installed: pip install "gymnasium[mujoco]"'
@@ -129,7 +130,7 @@ def _make_gymnasium(gym_id: str):
             warnings.simplefilter("ignore", DeprecationWarning)
             return gymnasium.make(gym_id)
     except gymnasium.error.DependencyNotInstalled as error:  # e.g. no mujoco for MuJoCo envs
-        raise MissingDependency(f"{str(error).strip().splitlines()[0]}; "
+        raise MissingDependency(f"{first_line(error)}; "
                                 f"{GYMNASIUM_MISSING}") from None
 
 

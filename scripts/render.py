@@ -72,6 +72,7 @@ from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from envs.task_adapter import TaskAdapter  # noqa: E402
 from sac_jax import run_dir  # noqa: E402
+from sac_jax.messages import first_line  # noqa: E402
 from sac_jax.cli import (MissingDependency, fail, parse, positive, prng_seed,  # noqa: E402
                          run_main)
 
@@ -179,9 +180,8 @@ def mujoco_renderer(env: MjxEnv, width: int, height: int):
             warnings.simplefilter("ignore")
             return mujoco.Renderer(model, height, width)
     except Exception as error:  # each backend fails its own way (FatalError, ImportError, ...)
-        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise MissingDependency(f"no OpenGL context for MuJoCo's renderer (MUJOCO_GL="
-                                f"{os.environ.get('MUJOCO_GL', '')!r}: {reason}); "
+                                f"{os.environ.get('MUJOCO_GL', '')!r}: {first_line(error)}); "
                                 f"{GL_HELP}") from None
 
 

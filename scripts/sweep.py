@@ -389,8 +389,7 @@ def main(argv=None) -> int:
             points, programs = plan(args.config, grid)
             out = args.out or os.path.join(
                 "runs", f"sweep-{args.preset}-{time.strftime('%Y%m%d-%H%M%S')}")
-            if os.path.exists(out):
-                raise run_dir.RunDirError(f"--out={out}: already exists; choose a new directory")
+            run_dir.check_new(out)  # before the memory checks' work
             sweep = {"preset": args.preset, "seeds": args.seeds, "seed": args.seed,
                      "grid": grid, "config": args.config}
             if args.track:

@@ -18,9 +18,10 @@ summary, and exits with 130 or 143 (a second one, or a chunk still running 10 s 
 stops at once, keeping the last checkpoint); `--resume` continues it to the same result as an
 uninterrupted run (a run killed after its last checkpoint gets its result files). A non-finite
 parameter stops the run (exit 1), saving its state with the delivered actors (a resume of it is
-refused: it would repeat the same updates). A checkpoint that cannot be written (e.g. a full
-disk), or W&B failing (with --track), stops it keeping the last good checkpoint. A damaged checkpoint is
-refused (exit 2), naming an intact earlier one to resume from with `--resume-step`. Bad input,
+refused: it would repeat the same updates). A checkpoint, TensorBoard's records or the result
+files that cannot be written (e.g. a full disk), or W&B failing (with --track), stop it with
+one line, keeping the last good checkpoint. A damaged checkpoint is refused (exit 2), naming
+an intact earlier one to resume from with `--resume-step`. Bad input,
 or a run that cannot fit in memory, ends with one line on stderr and exit 2, before anything
 is written.
 """
@@ -134,8 +135,7 @@ def _new_run(args: TrainArgs):
     info = run_dir.RunInfo(args.preset, args.seeds, args.seed)
     out = args.out or os.path.join(
         "runs", f"{args.preset}-{args.config.env}-{time.strftime('%Y%m%d-%H%M%S')}")
-    if os.path.exists(out):
-        raise run_dir.RunDirError(f"--out={out}: already exists; choose a new run directory")
+    run_dir.check_new(out)  # before the memory check's work
     fits = _memory_line(args, args.config, args.seeds)
     if args.track:
         tracking.check_available()

@@ -11,6 +11,9 @@ on), loses nothing already saved, and leaves nothing half-made that blocks a rer
     full disk while writing a checkpoint    exit 1, one line; the last checkpoint kept whole,
                                               no half-written step (patched writer; a real
                                               tmpfs where the tests may mount one)
+    full disk under TensorBoard's records   exit 1, one line; a new run without a checkpoint
+                                              leaves no directory
+    full disk writing the result files      exit 1, one line; --resume writes them
     --out that cannot be created            exit 2, one line, nothing made
     unwritable --cache-dir                  one warning; trains on without the cache
     damaged traced program in the cache     one warning; traced again; the run finishes
@@ -33,7 +36,7 @@ import jax
 import pytest
 
 import sac_jax
-from sac_jax import checkpoint, run_checkpoint
+from sac_jax import checkpoint, metric_writers, run_checkpoint
 from sac_jax import run as training
 from sac_jax.position import Position
 from scripts import evaluate as evaluate_script
@@ -202,6 +205,47 @@ def test_a_checkpoint_that_cannot_be_written_ends_the_run_in_one_line(tmp_path, 
                    f"2000) is kept: continue with --resume {out}"), err
     assert os.listdir(run_checkpoint.directory(out)) == ["2000"]
     run_checkpoint.load_checkpoint(out)  # whole: it loads
+
+
+def test_tensorboard_records_that_cannot_be_written_end_a_new_run_leaving_nothing(
+        tmp_path, capsys, monkeypatch):
+    """A full disk under TensorBoard's event file at the first point (its writer's thread
+    fails; the failure is re-raised at the next point or at the end): exit 1, one line naming
+    it; a new run with no checkpoint yet leaves no directory, so --out is free again."""
+    def full_disk(self, *args):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(metric_writers.TensorBoard, "_write", full_disk)
+    monkeypatch.setattr(run_checkpoint, "MIN_INTERVAL_S", 1e9)  # no checkpoint before the end
+    out = str(tmp_path / "full")
+    assert train_script.main(SMALL_RUN + ["--out", out]) == 1
+    err = capsys.readouterr().err
+    assert err == (f"error: TensorBoard's records could not be written: No space left on "
+                   f"device; {out} removed\n"), err
+    assert not os.path.exists(out)
+
+
+def test_result_files_that_cannot_be_written_keep_the_final_checkpoint_to_resume(
+        tmp_path, capsys, monkeypatch):
+    """A full disk as the result files are written after the last checkpoint: exit 1, one
+    line naming the file and the checkpoint kept; --resume then writes the result files."""
+    write_summary = metric_writers.write_summary
+
+    def full_disk(path, summary):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.path.join(path, "summary.json"))
+
+    monkeypatch.setattr(metric_writers, "write_summary", full_disk)
+    out = str(tmp_path / "full")
+    assert train_script.main(SMALL_RUN + ["--out", out]) == 1
+    err = capsys.readouterr().err
+    last = run_checkpoint.saved_steps(out)[-1]
+    assert err == (f"error: the result files could not be written ({out}/summary.json): No "
+                   f"space left on device; the last checkpoint written (step {last}) is kept: "
+                   f"continue with --resume {out}\n"), err
+    assert not os.path.exists(os.path.join(out, "summary.json"))
+    monkeypatch.setattr(metric_writers, "write_summary", write_summary)
+    assert train_script.main(["--resume", out]) == 0
+    assert json.load(open(os.path.join(out, "summary.json")))["status"] == "finished"
 
 
 def test_a_checkpoint_that_cannot_be_written_ends_a_sweep_in_one_line(tmp_path, capsys,
