@@ -5,7 +5,8 @@ is Brax's environment on its MJX pipeline (``brax.envs.get_environment(task, bac
 with none of Brax's training wrappers; the adapter (`envs.task_adapter.TaskAdapter`) makes the
 1000-step limit of Brax's ``EpisodeWrapper`` (``brax.envs.create``'s default) a truncation with
 the true final observation, and Brax's ``done`` (an unhealthy body, where the task has that
-rule) a termination. Actions are in the actuators' ``ctrlrange``.
+rule) a termination. Actions are in the actuators' ``ctrlrange``, except for the tasks of
+`UNIT_ACTIONS`, whose step takes actions in [-1, 1] and maps them onto that range itself.
 
 Brax no longer maintains its environments (a notice it prints on loading one, silenced here);
 MuJoCo Playground (``playground/<Task>``, envs/playground.py) holds the maintained MJX tasks.
@@ -27,6 +28,11 @@ TASKS = ("ant", "halfcheetah", "hopper", "humanoid", "humanoidstandup",
 """Brax 0.14.2's MuJoCo environments (`brax.envs._envs` without its test task "fast", checked
 by tests/test_brax_tasks.py), listed here so that naming them needs no import."""
 
+UNIT_ACTIONS = ("humanoid", "humanoidstandup", "inverted_pendulum", "pusher")
+"""The tasks whose ``step`` maps an action in [-1, 1] affinely onto the actuators'
+``ctrlrange`` before the physics (checked by tests/test_brax_tasks.py). Offered that range
+instead, inverted_pendulum's [-3, 3] became controls of 3a, clamped: only a third of it moved
+the cart, and humanoid's [-0.4, 0.4] became 0.4a, 40 % of its actuators' range."""
 EPISODE_LENGTH = 1000
 """Steps before a truncation: `brax.envs.create`'s default `episode_length`."""
 
@@ -49,8 +55,10 @@ class BraxTask(TaskAdapter):
     """One Brax environment behind our `Env` interface (see the module docstring)."""
 
     def __init__(self, name: str):
-        task = _load(task_name(name))
-        super().__init__(name, task, task.sys.mj_model, EPISODE_LENGTH, task.dt)
+        brax_name = task_name(name)
+        task = _load(brax_name)
+        super().__init__(name, task, task.sys.mj_model, EPISODE_LENGTH, task.dt,
+                         unit_actions=brax_name in UNIT_ACTIONS)
 
     @staticmethod
     def physics(data):

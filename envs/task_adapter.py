@@ -54,16 +54,18 @@ def observation_size(task) -> int:
 class TaskAdapter(Env):
     """`task` (reset/step as above; `observation_size` an int, a shape, or a dict of them with
     a "state" entry) behind our `Env` interface, its actuators read from the MuJoCo model
-    `mj_model`."""
+    `mj_model`: actions in their `ctrlrange` (in [-1, 1] where unlimited), or in [-1, 1] with
+    `unit_actions`, for a task whose step maps [-1, 1] onto the `ctrlrange` itself."""
 
     simulates_mujoco = True
 
-    def __init__(self, name: str, task, mj_model, episode_length: int, dt: float):
+    def __init__(self, name: str, task, mj_model, episode_length: int, dt: float,
+                 unit_actions: bool = False):
         self._task, self._mj_model = task, mj_model
         limited = np.asarray(mj_model.actuator_ctrllimited, bool)
         ranges = np.asarray(mj_model.actuator_ctrlrange, np.float32)
-        low = np.where(limited, ranges[:, 0], -1.0)
-        high = np.where(limited, ranges[:, 1], 1.0)
+        low = np.where(limited & ~unit_actions, ranges[:, 0], -1.0)
+        high = np.where(limited & ~unit_actions, ranges[:, 1], 1.0)
         super().__init__(name, observation_size(task), low, high, int(episode_length),
                          float(dt))
 

@@ -88,6 +88,26 @@ def test_properties(env):
     assert isinstance(benv.backend, str)
 
 
+def test_actions_in_minus_one_one_map_onto_asymmetric_bounds():
+    """a_env = low + (a + 1)(high - low) / 2: -1 to low, 1 to high, 0 to the midpoint (the
+    lanes below have symmetric bounds, where the offset `low` would not show)."""
+    ours = envs.make("InvertedPendulum-v5")
+    benv = envs.to_brax(ours)
+    state = benv.reset(jax.random.key(0))
+    benv._low, benv._half_range = jnp.array([-1.0]), jnp.array([2.0])  # bounds (-1, 3)
+    given = []
+
+    class Recorder:  # our env, recording the action each step is given
+        def step(self, s, a):
+            given.append(np.asarray(a))
+            return ours.step(s, a)
+
+    benv._env = Recorder()
+    for a in (-1.0, 0.0, 1.0):
+        benv.step(state, jnp.array([a]))
+    np.testing.assert_allclose(np.concatenate(given), [-1.0, 1.0, 3.0])
+
+
 def test_adapter_alone_matches_our_env(env):
     """Unwrapped (only vmapped): never reset, done = terminated, obs and reward are ours. The
     same float32 operations in another program: rewards and flags bit for bit; observations to

@@ -4,6 +4,8 @@ stepped directly (same draws, same observations and rewards; Brax's `done` a ter
 actuators' bounds; fresh random starts), the one-line error for an unknown name, and a short
 CPU run whose delivered policy balances in Brax's environment itself."""
 
+import inspect
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -62,18 +64,40 @@ def test_the_limit_truncates_with_the_final_observation(env):
         state.data, jnp.zeros(1)).obs)
 
 
-def test_actions_are_clipped_to_the_actuators_bounds_and_resets_draw_fresh_starts(env):
+def test_actions_span_the_actuators_range_clipped_and_resets_draw_fresh_starts(env):
+    """inverted_pendulum's step maps [-1, 1] onto its ctrlrange [-3, 3] itself: our bounds are
+    [-1, 1], each action reaches the control it names, and one beyond is clipped to the bound
+    (MJX clamps ctrl itself, so equal observations alone would not show it)."""
     model = brax_tasks._load("inverted_pendulum").sys.mj_model
-    np.testing.assert_array_equal(env.action_low, model.actuator_ctrlrange[:, 0])
-    np.testing.assert_array_equal(env.action_high, model.actuator_ctrlrange[:, 1])
+    np.testing.assert_array_equal(model.actuator_ctrlrange, [[-3.0, 3.0]])
+    np.testing.assert_array_equal(env.action_low, [-1.0])
+    np.testing.assert_array_equal(env.action_high, [1.0])
     state = env.reset(jax.random.key(0))
-    beyond = env.action_high * 4
-    np.testing.assert_array_equal(env.step(state, beyond).obs,
-                                  env.step(state, env.action_high).obs)
+    ctrl = lambda a: np.asarray(env.step(state, jnp.array([a])).data.pipeline_state.ctrl)
+    np.testing.assert_allclose([ctrl(a) for a in (-1.0, -0.5, 0.0, 1.0, 4.0, -4.0)],
+                               [[-3.0], [-1.5], [0.0], [3.0], [3.0], [-3.0]], atol=1e-6)
+    np.testing.assert_array_equal(env.step(state, jnp.array([4.0])).obs,
+                                  env.step(state, jnp.array([1.0])).obs)
     after = env.step(state, jnp.array([jnp.nan]))
     assert bool(after.terminated) and np.all(np.isfinite(after.obs))
     starts = jax.vmap(env.reset)(jax.random.split(jax.random.key(0), 8)).obs
     assert len({tuple(np.asarray(o)) for o in starts}) == 8
+
+
+def test_unit_actions_lists_the_tasks_whose_step_rescales_the_action():
+    """`brax_tasks.UNIT_ACTIONS` is exactly the tasks whose `step` maps [-1, 1] onto the
+    actuators' `ctrl_range` (read from Brax's source; the others set the action as `ctrl`,
+    all of them within [-1, 1]); pusher's [-2, 2] is offered as [-1, 1]."""
+    from brax import envs as brax_envs
+
+    rescaling = {name for name in brax_tasks.TASKS
+                 if "ctrl_range" in inspect.getsource(brax_envs._envs[name].step)}
+    assert rescaling == set(brax_tasks.UNIT_ACTIONS)
+    pusher = envs.make("brax/pusher")
+    np.testing.assert_array_equal(brax_tasks._load("pusher").sys.mj_model.actuator_ctrlrange,
+                                  [[-2.0, 2.0]] * 7)
+    np.testing.assert_array_equal((pusher.action_low, pusher.action_high), [[-1.0] * 7,
+                                                                            [1.0] * 7])
 
 
 def test_an_unknown_brax_name_fails_in_one_line():

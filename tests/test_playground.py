@@ -77,6 +77,10 @@ def test_actions_are_clipped_to_the_tasks_bounds_and_resets_draw_fresh_starts(en
     state = env.reset(jax.random.key(0))
     np.testing.assert_array_equal(env.step(state, jnp.array([5.0])).obs,
                                   env.step(state, jnp.array([1.0])).obs)
+    # MJX clamps ctrl itself, so equal observations alone would not show that the task gets
+    # the clipped action (its reward reads the action it is given)
+    np.testing.assert_array_equal(env.step(state, jnp.array([5.0])).data.data.ctrl, [1.0])
+    np.testing.assert_array_equal(env.step(state, jnp.array([-5.0])).data.data.ctrl, [-1.0])
     starts = jax.vmap(env.reset)(jax.random.split(jax.random.key(0), 8)).obs
     assert len({tuple(np.asarray(o)) for o in starts}) == 8
 
