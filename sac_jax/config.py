@@ -183,7 +183,11 @@ class SACConfig:
     def __post_init__(self):
         # Lists from a JSON file or a CLI become tuples, so the config stays hashable.
         for name in ("update_order", "actor_hidden", "critic_hidden"):
-            object.__setattr__(self, name, tuple(getattr(self, name)))
+            value = getattr(self, name)
+            if not isinstance(value, (list, tuple)):
+                raise ValueError(f"SACConfig.{name}={value!r}: must be a tuple, e.g. "
+                                 f"{SACConfig.__dataclass_fields__[name].default!r}")
+            object.__setattr__(self, name, tuple(value))
         self._validate()
 
     # ------------------------------------------------------------------ validation
@@ -197,6 +201,8 @@ class SACConfig:
 
         import envs  # local import: building a config must not pull MJX at module import
 
+        if not isinstance(self.env, str):
+            fail("env", "must be an environment's name, e.g. 'InvertedPendulum-v5'")
         try:
             envs.spec(self.env)  # close names where it is unknown
         except ValueError as error:

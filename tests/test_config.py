@@ -8,6 +8,10 @@ from sac_jax import PRESETS, SACConfig
 
 BAD_VALUES = [
     ("env", "CartPole-v9", "unknown environment"),
+    ("env", 3, "must be an environment's name"),
+    ("env", None, "must be an environment's name"),
+    ("actor_hidden", 256, r"must be a tuple, e\.g\. \(256, 256\)"),
+    ("update_order", "critic", r"must be a tuple, e\.g\. \('critic', 'actor'\)"),
     ("variant", "v3", "must be one of"),
     ("num_envs", 0, "positive integer"),
     ("num_envs", 2.5, "positive integer"),
