@@ -10,6 +10,11 @@ reaches them (`jax.lax.stop_gradient`: Adam's step on a zero gradient is exactly
 change only through `observe`, once per iteration, with the observations the actions were
 taken from. The replay buffer keeps raw observations, normalised when sampled, with the current
 statistics.
+
+In float32 (the parameters' dtype) the statistics stop moving once a batch is too small a
+part of what came before: n stays at 2^24 for batches of one observation (2^32 for 256), and m2
+likewise once n / n_b passes 2^24, so a run of one environment past 16.8M steps keeps the
+statistics it had there (as Brax's running statistics, also float32, do).
 """
 
 from __future__ import annotations

@@ -338,6 +338,27 @@ def check_one_device() -> dict:
                 jax.tree_util.tree_map(lambda x: x[:prefill], plain[0].buffer.data))}
 
 
+def check_shares() -> dict:
+    """The initial state of a data-parallel run over the 2 devices: the environments (and
+    keys) of device 0's share against a one-device run of that share from the same key, and
+    against device 1's share (its own key, `fold_in(key, 1)`)."""
+    key = jax.random.key(3)
+    mesh = parallel.make_mesh(parallel.DATA)
+    runner = jax.device_get(jax.jit(parallel.make_data_parallel_parts(SMALL_CONFIG, mesh).init)(
+        key))
+    alone = jax.device_get(jax.jit(make_train_parts(SMALL_CONFIG.replace(
+        num_envs=SMALL_CONFIG.num_envs // 2)).init)(key))
+    data = lambda x: np.asarray(jax.random.key_data(x) if jax.dtypes.issubdtype(
+        x.dtype, jax.dtypes.prng_key) else x)
+    shares = [[data(x)[d] for x in jax.tree_util.tree_leaves((runner.env, runner.key))]
+              for d in range(2)]
+    own = [data(x) for x in jax.tree_util.tree_leaves((alone.env, alone.key))]
+    return {"share0_as_alone": all(np.array_equal(a, b) for a, b in zip(shares[0], own,
+                                                                           strict=True)),
+            "shares_differ": not np.array_equal(data(runner.env.env_state.obs)[0],
+                                                data(runner.env.env_state.obs)[1])}
+
+
 def check_learning() -> dict:
     """A data-parallel run of TRAIN_CONFIG over the 2 devices: its evaluation returns, and
     its delivered actor's mean return over 10 episodes of Gymnasium's Pendulum-v1 (the
@@ -410,7 +431,7 @@ def check_stored() -> dict:
 
 CHECKS = {"updates": check_updates, "seeds": check_seeds, "separate": check_separate,
           "settings": check_settings, "one_device": check_one_device, "learning": check_learning,
-          "cached": check_cached, "stored": check_stored}
+          "cached": check_cached, "stored": check_stored, "shares": check_shares}
 FLOAT64_CHECKS = ("updates", "seeds", "separate", "settings", "one_device")
 
 

@@ -90,12 +90,25 @@ def test_data_parallel_training_learns_pendulum():
     assert check["finite_params"]
 
 
-def test_a_checkpoint_cuts_each_devices_replay_shard_without_assembling_the_buffer():
+@pytest.fixture(scope="module")
+def device_checks():
+    """parallel_checks.py's "stored" and "shares" (float32), in one subprocess."""
+    return run_parallel_checks("stored", "shares")
+
+
+def test_a_checkpoint_cuts_each_devices_replay_shard_without_assembling_the_buffer(
+        device_checks):
     """Seeds split over 2 devices: the stored replay arrays are the filled slots of each
     device's shard, joined in seed order into one new array (`jax.device_get` had assembled
     all slots first: a whole replay buffer more at every checkpoint)."""
-    check = run_parallel_checks("stored")["stored"]
+    check = device_checks["stored"]
     assert check == {"shards": 2, "shape": [4, 6, 3], "equal": True, "new_array": True}, check
+
+
+def test_each_device_of_a_data_parallel_run_steps_its_own_environments(device_checks):
+    """Device 0's share starts as a one-device run of it from the run's key, device 1's from
+    its own key: with one key for both, the devices would collect the same transitions."""
+    assert device_checks["shares"] == {"share0_as_alone": True, "shares_differ": True}
 
 
 def test_one_seed_program_is_the_function_between_taking_and_restoring_the_seed_axis():
