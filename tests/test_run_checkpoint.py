@@ -65,22 +65,40 @@ def test_only_the_filled_replay_slots_are_stored(run):
     assert (2, 40, 3) in shapes and (2, 4000, 3) not in shapes
 
 
-def test_saving_at_new_fill_levels_compiles_nothing(run, tmp_path, caplog):
+@pytest.mark.parametrize("device_copy", [False, True], ids=["in line", "device copy"])
+def test_saving_at_new_fill_levels_compiles_nothing(run, tmp_path, caplog, monkeypatch,
+                                                    device_copy):
     """A run saves after every chunk, each time with more slots filled. Cut on the device, each
     new length compiled a slice program: 0.13 s of host time per chunk of the `fast` preset on
-    the CPU, while the device waited (BENCHMARKS.md)."""
+    the CPU, while the device waited (BENCHMARKS.md). Fetched in line (a CPU's path), nothing is
+    cut on the device; the writer's device copy (an accelerator's path, forced here) cuts to a
+    power of two of slots, so 41 and 42 filled slots reuse the slice of 64 that 40 compiled."""
+    copies = []
+    if device_copy:
+        monkeypatch.setattr(run_checkpoint, "_on_host", lambda tree: False)
+        monkeypatch.setattr(run_checkpoint, "_room_for_copy", lambda tree: True)
+        monkeypatch.setattr(memory, "IN_LINE_COPY_BYTES", 0)
+        copy = run_checkpoint._device_copy
+        monkeypatch.setattr(run_checkpoint, "_device_copy",
+                            lambda tree: copies.append(_filled_slots(tree)) or copy(tree))
     _, saved = run
     runner = jax.device_put(saved)  # device arrays, as a run's state
     writer = run_checkpoint.CheckpointWriter(str(tmp_path / "writer"), min_interval_s=0)
+    at = lambda filled: runner.replace(buffer=runner.buffer.replace(
+        size=jax.device_put(np.int32(filled))))
+    writer.save(at(40), Position(chunks_done=1, env_steps=40))  # the first save's programs
     with jax.log_compiles(True), caplog.at_level(logging.WARNING):
         for filled in (41, 42):
-            state = runner.replace(buffer=runner.buffer.replace(
-                size=jax.device_put(np.int32(filled))))
             position = Position(chunks_done=1, env_steps=filled)
-            run_checkpoint.save_checkpoint(str(tmp_path), state, position)
-            writer.save(state, position)  # nor does the writer's device-side copy
+            run_checkpoint.save_checkpoint(str(tmp_path), at(filled), position)
+            writer.save(at(filled), position)
         writer.close()
     assert not [r.getMessage() for r in caplog.records if "ompil" in r.getMessage()]
+    assert copies == ([40, 41, 42] if device_copy else [])
+
+
+def _filled_slots(runner) -> int:
+    return int(np.max(np.asarray(runner.buffer.size)))
 
 
 def _stored_arrays(out, step):
