@@ -14,7 +14,8 @@
 This module makes the directory and reads back what defines the run; the modules named above
 write the rest.
 The directory is created under a temporary name and renamed, so an existing directory is never
-written into by a new run; every later file is written to a temporary name and renamed.
+written into by a new run; every later file is written to a temporary name and renamed, but
+TensorBoard's event file, appended to as the run goes (`sac_jax.metric_writers`).
 """
 
 from __future__ import annotations

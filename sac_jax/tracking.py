@@ -29,7 +29,8 @@ import numpy as np
 from sac_jax import wandb_records
 from sac_jax.background import BackgroundWrites
 from sac_jax.metric_writers import Point, point_scalars
-from sac_jax.run_dir import write_json
+from sac_jax.messages import first_line
+from sac_jax.run_dir import RunDirError, write_json
 
 WANDB_JSON = "wandb.json"
 INSTALL = 'pip install -e ".[track]"'
@@ -60,12 +61,19 @@ def save_settings(run_dir: str, tracked: dict) -> None:
 
 
 def load_settings(run_dir: str) -> Optional[dict]:
-    """wandb.json of a run directory, or None if the run is not tracked."""
+    """wandb.json of a run directory, or None if the run is not tracked; `RunDirError` (one
+    line naming the file) if it cannot be read."""
     path = os.path.join(run_dir, WANDB_JSON)
     if not os.path.exists(path):
         return None
-    with open(path) as f:
-        return json.load(f)
+    try:
+        with open(path) as f:
+            settings = json.load(f)
+    except (OSError, ValueError) as error:
+        raise RunDirError(f"{path}: not readable ({first_line(error)})") from None
+    if not isinstance(settings, dict):
+        raise RunDirError(f"{path}: not readable (a JSON object expected)")
+    return settings
 
 
 class WandbRun(BackgroundWrites):

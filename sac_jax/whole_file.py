@@ -1,6 +1,7 @@
 """Files written whole or not at all: under a temporary name in the same directory, then
 renamed (a rename within one filesystem is atomic). Every file sac-jax writes outside orbax's
-checkpoint arrays goes through `write_file`."""
+checkpoint arrays and TensorBoard's event file (appended to point by point, and rebuilt whole
+on a resume: `sac_jax.metric_writers.rebuild`) goes through `write_file`."""
 
 from __future__ import annotations
 

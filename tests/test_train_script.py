@@ -366,6 +366,19 @@ def test_a_non_finite_state_stops_the_run_and_saves_what_its_summary_describes(r
     assert run_checkpoint.saved_steps(diverging) == [2000, 3000]  # nothing written
 
 
+def test_a_damaged_wandb_json_is_refused_on_resume_naming_it(runs, capsys):
+    damaged = str(runs["root"] / "damaged-wandb")
+    shutil.copytree(runs["interrupted"], damaged)
+    path = os.path.join(damaged, tracking.WANDB_JSON)
+    for text in ('{"id": "abc", "proj', '["a list"]'):
+        with open(path, "w") as f:
+            f.write(text)
+        assert train_script.main(["--resume", damaged]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: {path}: not readable (") and err.count("\n") == 1, err
+    assert run_checkpoint.saved_steps(damaged) == run_checkpoint.saved_steps(runs["interrupted"])
+
+
 def test_track_without_wandb_ends_with_one_line_and_writes_nothing(tmp_path, capsys,
                                                                    monkeypatch):
     """wandb is an optional extra: where it cannot be imported (as the finder reports here),
