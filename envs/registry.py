@@ -8,7 +8,6 @@ the learning tests read an environment's facts from its spec.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import functools
 import importlib
 import inspect
@@ -16,6 +15,7 @@ from typing import Callable, Literal, Optional
 
 from envs import brax_tasks, playground
 from envs.pendulum import Pendulum
+from envs._validate import unknown_name
 from envs.types import Env
 
 DEFAULT_ENV = "InvertedPendulum-v5"
@@ -100,11 +100,8 @@ def spec(name: str) -> EnvSpec:
         brax_tasks.task_name(name)
         return EnvSpec(name, brax_tasks.BraxTask, None, None, "mujoco")
     if name not in SPECS:
-        close = difflib.get_close_matches(name, registered(), n=3, cutoff=0.6)
-        raise ValueError(f"unknown environment {name!r}; "
-                         + (f"did you mean {', '.join(close)}?" if close
-                            else f"registered: {', '.join(SPECS)}, playground/<Task> and "
-                            "brax/<task>"))
+        raise unknown_name("environment", name, registered(),
+                           f"registered: {', '.join(SPECS)}, playground/<Task> and brax/<task>")
     return SPECS[name]
 
 

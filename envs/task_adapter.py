@@ -18,7 +18,6 @@ envs/playground.py, Brax's in envs/brax_tasks.py): a task whose ``reset(key)`` a
 
 from __future__ import annotations
 
-import difflib
 import functools
 from typing import Sequence
 
@@ -26,6 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from envs._validate import unknown_name
 from envs.types import Env, EnvState
 
 
@@ -34,10 +34,8 @@ def task_name(name: str, prefix: str, tasks: Sequence[str], library: str) -> str
     naming close names) if it is not one."""
     task = name[len(prefix):]
     if task not in tasks:
-        close = difflib.get_close_matches(task, tasks, n=3, cutoff=0.5)
-        hint = (f"did you mean {', '.join(prefix + c for c in close)}?" if close
-                else f"known: {', '.join(prefix + t for t in tasks)}")
-        raise ValueError(f"unknown {library} {name!r}; {hint}")
+        raise unknown_name(library, name, tasks, f"known: {', '.join(prefix + t for t in tasks)}",
+                           prefix)
     return task
 
 

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+from envs._validate import is_positive_int
 from envs.types import Env, EnvState
 
 
@@ -82,10 +83,10 @@ class VectorEnv:
     """
 
     def __init__(self, env: Env, num_envs: int, reset_axis: Optional[str] = None):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+        if not is_positive_int(num_envs):
             raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
         self._env = env
-        self._num_envs = num_envs
+        self._num_envs = int(num_envs)
         self._reset_axis = reset_axis
 
     @property

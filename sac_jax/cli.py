@@ -23,6 +23,7 @@ from typing import (TYPE_CHECKING, Any, Dict, Literal, NoReturn, Optional, Seque
 import tyro
 from tyro import _errors
 
+from envs._validate import is_positive_int
 from sac_jax import (compilation_cache, malloc_arenas, metric_writers, parallel, plots,
                      run_checkpoint, tracking)
 from sac_jax.messages import first_line, os_reason
@@ -78,7 +79,7 @@ def parse(cls: Type[T], argv: Optional[Sequence[str]] = None, *, default: Option
 
 def positive(name: str, value: int) -> None:
     """ValueError naming the flag `--name` unless `value` is an integer >= 1."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+    if not is_positive_int(value):
         raise ValueError(f"--{name.replace('_', '-')}={value!r}: must be a positive integer")
 
 

@@ -33,6 +33,7 @@ import jax.numpy as jnp
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
+from envs._validate import is_positive_int
 from sac_jax.config import SACConfig
 from sac_jax.train import (EVAL_NAMES, METRIC_NAMES, SEED_AXES, RunnerState, TrainParts,
                            make_train_parts)
@@ -167,7 +168,7 @@ def local_config(config: SACConfig, num_devices: int, axis: str = DATA) -> SACCo
     """One device's share of a data-parallel run of `config` over `num_devices` devices: the
     `SHARDED_FIELDS` divided by D (each must be a multiple of D), the same number of iterations
     and evaluations, and gradients averaged over `axis`."""
-    if isinstance(num_devices, bool) or not isinstance(num_devices, int) or num_devices < 1:
+    if not is_positive_int(num_devices):
         raise ValueError(f"num_devices={num_devices!r}: must be a positive integer")
     for field in SHARDED_FIELDS:
         value = getattr(config, field)
