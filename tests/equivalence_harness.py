@@ -38,6 +38,7 @@ from sac_jax import losses
 from sac_jax.updates import (actor_objective, critic_objective, update_actor, update_critic,
                              update_temperature, update_value, value_objective)
 from references import cleanrl_sac, pendulum_sac, sac_v1, transfer
+from tests.pendulum_shapes import cast_floats
 
 BATCH = 64
 RUN_UPDATES = 200
@@ -86,9 +87,7 @@ def reference_log_alpha(ref) -> float:
 def state_from_reference(agent, ref, dtype) -> sac_jax.SACState:
     """A fresh `agent.init` state with the reference's weights and temperature, all floats in
     `dtype`, optimiser states zero (as the reference's fresh Adam)."""
-    state = agent.init(jax.random.PRNGKey(0))
-    state = jax.tree_util.tree_map(
-        lambda x: x.astype(dtype) if jnp.issubdtype(x.dtype, jnp.floating) else x, state)
+    state = cast_floats(agent.init(jax.random.PRNGKey(0)), dtype)
     params = transfer.to_flax(ref.networks())
     as_jax = lambda tree: jax.tree_util.tree_map(lambda x: jnp.asarray(x, dtype), tree)
     state = state.replace(**{f"{name}_params": as_jax(p) for name, p in params.items()})

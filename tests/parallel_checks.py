@@ -33,6 +33,7 @@ from sac_jax.train import make_train_parts
 from sac_jax import parallel, selection
 from sac_jax.compilation_cache import enable_compilation_cache
 from sac_jax.program_cache import cached_lower
+from tests.pendulum_shapes import cast_floats, pendulum_agent, pendulum_batch
 
 # Pendulum-v1 shapes (O = 3, A = 1), global batch of 32. v2 with CleanRL's policy delay of 2:
 # the compared update is the 4th, which runs the actor block (2 actor and temperature steps)
@@ -83,8 +84,7 @@ def run_parallel_checks(*names, x64: bool = False) -> dict:
 
 def to_float64(tree):
     """`tree` with every floating leaf in float64 (needs JAX_ENABLE_X64=1)."""
-    return jax.tree_util.tree_map(
-        lambda x: x.astype(jnp.float64) if jnp.issubdtype(x.dtype, jnp.floating) else x, tree)
+    return cast_floats(tree, jnp.float64)
 
 
 def float64_train(parts, metrics=lambda outputs: outputs):
@@ -171,20 +171,6 @@ def relative_diff_per_point(a: dict, b: dict) -> list:
             for p in range(points)]
 
 
-def _pendulum_agent(config):
-    return sac_jax.make_agent(config, 3, 1, -2.0, 2.0)
-
-
-def _global_batch(key, batch_size):
-    k = jax.random.split(key, 4)
-    return sac_jax.Transition(
-        obs=jax.random.normal(k[0], (batch_size, 3)),
-        action=jax.random.uniform(k[1], (batch_size, 1), minval=-2, maxval=2),
-        reward=jax.random.normal(k[2], (batch_size,)),
-        next_obs=jax.random.normal(k[3], (batch_size, 3)),
-        terminated=(jnp.arange(batch_size) % 5 == 0).astype(jnp.float32))
-
-
 def check_updates() -> dict:
     """One `sac_update` on a global batch of 32 with injected noise, float64: on one device, and
     data parallel over 2 devices as `parallel.make_data_parallel_parts` runs it (the update
@@ -203,18 +189,18 @@ def check_updates() -> dict:
     update = jax.jit(sac_jax.sac_update)
     out = {}
     for name, config in UPDATE_CONFIGS.items():
-        agent = _pendulum_agent(config)
+        agent = pendulum_agent(config)
         state = to_float64(agent.init(jax.random.key(0)))
         for i in range(3):
-            state = update(agent, state, _global_batch(jax.random.key(10 + i), 32),
+            state = update(agent, state, pendulum_batch(jax.random.key(10 + i), 32),
                            jax.random.key(20 + i))[0]
-        batch = _global_batch(jax.random.key(1), 32)
+        batch = pendulum_batch(jax.random.key(1), 32)
         noise = sac_jax.sample_noise(agent, jax.random.key(2), 32)
         single = jax.device_get(update(agent, state, batch, noise))
 
         def per_device(cfg):
             """Each share's (state, metrics) after the data-parallel update, stacked."""
-            fn = jax.vmap(lambda s, b, n: sac_jax.sac_update(_pendulum_agent(cfg), s, b, n),
+            fn = jax.vmap(lambda s, b, n: sac_jax.sac_update(pendulum_agent(cfg), s, b, n),
                           in_axes=(None, 0, 0), out_axes=0, axis_name="data")
             return jax.device_get(jax.jit(fn, in_shardings=(whole, split, split))(
                 state, jax.tree_util.tree_map(lambda x: shares(x, 0), batch),

@@ -10,6 +10,7 @@ import pytest
 import sac_jax
 from sac_jax import SACConfig, Transition, observation_norm
 from sac_jax.observation_norm import COLLECTION
+from tests.pendulum_shapes import pendulum_agent
 
 CONFIG = SACConfig(env="Pendulum-v1", actor_hidden=(32, 32), critic_hidden=(32, 32),
                    batch_size=16, learning_starts=16, eval_every=16, total_steps=48)
@@ -42,9 +43,7 @@ def test_the_running_statistics_are_those_of_all_observations_so_far():
                                (every[:3] - every.mean(0)) / every.std(0), rtol=1e-4, atol=1e-5)
 
 
-def _agent(config):
-    return sac_jax.make_agent(config, observation_size=3, action_size=1, action_low=-2.0,
-                              action_high=2.0)
+_agent = pendulum_agent
 
 
 @pytest.mark.parametrize("variant", ["v2", "v1"])

@@ -7,25 +7,19 @@ import numpy as np
 import pytest
 
 import sac_jax
-from sac_jax import SACConfig, Transition
+from sac_jax import SACConfig
+from tests.pendulum_shapes import pendulum_agent, pendulum_batch
 
 CONFIG = SACConfig(env="Pendulum-v1", actor_hidden=(32, 32), critic_hidden=(32, 32),
                    batch_size=16, learning_starts=16, eval_every=16, total_steps=48)
 B = CONFIG.batch_size
 
 
-def _agent(config):
-    return sac_jax.make_agent(config, observation_size=3, action_size=1, action_low=-2.0,
-                              action_high=2.0)
+_agent = pendulum_agent
 
 
 def _batch(seed=0):
-    k = jax.random.split(jax.random.key(seed), 4)
-    return Transition(obs=jax.random.normal(k[0], (B, 3)),
-                      action=jax.random.uniform(k[1], (B, 1), minval=-2, maxval=2),
-                      reward=jax.random.normal(k[2], (B,)),
-                      next_obs=jax.random.normal(k[3], (B, 3)),
-                      terminated=(jnp.arange(B) % 5 == 0).astype(jnp.float32))
+    return pendulum_batch(jax.random.key(seed), B)
 
 
 def _allclose(a, b, **kw):
