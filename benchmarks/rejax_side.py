@@ -10,7 +10,9 @@ steps, gamma 0.99, polyak 0.98, swish activations, observation normalisation), e
 run time of `--repeats` calls, and per evaluation point the mean return over seeds; for the
 first count also `to_result_s`, from this process's start (before JAX is imported) to the end of
 its first trained result (imports, JAX's start, compile and the first call): what a user of
-rejax waits for one run (rejax_peer.py runs one process per count).
+rejax waits for one run (rejax_peer.py runs one process per count). rejax keeps no compiled
+program between processes; with `--cache-dir` this process turns JAX's persistent compilation
+cache on there, as sac-jax's scripts do by default (every compilation cached, however short).
 
     /path/to/rejax-venv/bin/python benchmarks/rejax_side.py --seeds 1 16
 """
@@ -71,7 +73,13 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[1])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--eval-freq", type=int, default=500)
+    parser.add_argument("--cache-dir", default=None,
+                        help="JAX's persistent compilation cache here (default: none)")
     args = parser.parse_args()
+    if args.cache_dir is not None:  # sac_jax.compilation_cache's settings
+        jax.config.update("jax_compilation_cache_dir", args.cache_dir)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+        jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     import rejax
 
     algo = rejax.SAC.create(**CONFIG, eval_freq=args.eval_freq)
@@ -81,7 +89,8 @@ def main() -> None:
     print(json.dumps(dict(rejax=importlib.metadata.version("rejax"),
                           gymnax=importlib.metadata.version("gymnax"),
                           jax=jax.__version__, device=jax.devices()[0].device_kind,
-                          config=CONFIG, eval_freq=args.eval_freq, runs=runs)))
+                          config=CONFIG, eval_freq=args.eval_freq,
+                          cache=args.cache_dir is not None, runs=runs)))
 
 
 if __name__ == "__main__":

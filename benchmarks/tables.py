@@ -511,13 +511,14 @@ def _target_delivered_cpu():
         warm.append(f"{_cpu(data)} median {statistics.median(times):.1f} s, slowest "
                     f"{max(times):.1f} s")
         first = _load(cold_name)["result"].get("cold") if _find(cold_name) else None
-        cold.append(f"{_cpu(data)} " + (f"{first['solved_process_s']:.1f} s" if first
-                                        else "not measured"))
+        colds = [c["solved_process_s"] for c in first.get("runs", [first])] if first else []
+        cold.append(f"{_cpu(data)} " + (f"median {first['solved_process_s']:.1f} s, slowest "
+                                        f"{max(colds):.1f} s" if first else "not measured"))
         cold_good = first and all(c["gymnasium_return"] >= 950
                                   for c in first.get("runs", [first]))
         met &= bool(len(runs) >= 10 and seeds_good == len(runs) and many
                     and many["seeds"] >= 32 and many_good == many["seeds"]
-                    and max(times) <= 10 and cold_good and first["solved_process_s"] <= 25)
+                    and max(times) <= 10 and cold_good and max(colds) <= 25)
     figure = (f"{'; '.join(dict.fromkeys(good))} ≥ 950; warm: {'; '.join(warm)}; cold: "
               f"{'; '.join(cold)}")
     return sorted(_cpus_delivered_files()), [(figure, met)]
@@ -583,15 +584,20 @@ def _target_env_gpu():
 
 
 def _target_progress():
-    names = [n for n in (_find(f"progress_overhead-{p}-cpu") for p in PROGRESS_CPU) if n]
+    """The host's share of a followed run, every CPU preset and the GPU's 256-seed run."""
+    names = [n for n in [_find(f"progress_overhead-{p}-cpu") for p in PROGRESS_CPU]
+             + [_gpu("progress_overhead-fast")] if n]
     if not names:
         return None
-    results = [_load(n)["result"] for n in names]
-    missing = [p for p in PROGRESS_CPU if p not in {r["preset"] for r in results}]
-    return names, [(", ".join(f"`{r['preset']}` {r['followed_host_pct']:.2f} %"
-                              for r in results) +
-                    "".join(f", `{p}` not measured yet" for p in missing),
-                    None if missing else all(r["followed_host_pct"] <= 5 for r in results))]
+    results = [(n, _load(n)["result"]) for n in names]
+    cpu = {r["preset"] for n, r in results if n.endswith("-cpu")}
+    missing = [p for p in PROGRESS_CPU if p not in cpu]
+    where = lambda n: "CPU" if n.endswith("-cpu") else n.rsplit("-", 1)[-1].upper()
+    met = all(r["followed_host_pct"] <= 5 for _, r in results)
+    return names, [(", ".join(f"{where(n)} `{r['preset']}` {r['seeds']} seed(s) "
+                              f"{r['followed_host_pct']:.2f} %" for n, r in results) +
+                    "".join(f", CPU `{p}` not measured yet" for p in missing),
+                    None if (missing or len(cpu) == len(results)) and met else met)]
 
 
 def _target_checkpoint_cost():
@@ -739,16 +745,20 @@ def rejax() -> str:
             j, p, cold, warm = r["rejax"], r["program"], r["script_cold"], r["script_warm"]
             rounds = r["to_result_rounds"]
             rejax_s, warm_s = (statistics.median(rounds[k]) for k in ("rejax", "ours_warm"))
+            cached = (f"{statistics.median(rounds['rejax_warm']):.1f}"
+                      if "rejax_warm" in rounds else "-")
+            both = r.get("rejax_warm_over_script_to_result_warm")
             out.append([where, r["seeds"], f"{j['compile_s']:.1f} + {j['run_s']:.2f} s",
                         f"{p['compile_s']:.1f} + {p['run_s']:.2f} s",
                         f"{warm['run_s']:.2f} s ({r['script_over_program']:.2f}x)"
                         + (f", {warm['seed_devices']} devices" if warm.get("seed_devices", 1) > 1
                            else ""),
-                        f"{rejax_s:.1f} / {cold['to_result_s']:.1f} / {warm_s:.1f} s"
+                        f"{rejax_s:.1f} / {cached} / {cold['to_result_s']:.1f} / {warm_s:.1f} s"
                         + (f" (warm: medians of {len(rounds['rejax'])})"
                            if len(rounds["rejax"]) > 1 else ""),
                         f"{r['rejax_over_script_to_result_cold']:.2f}x / "
-                        f"{r['rejax_over_script_to_result_warm']:.2f}x",
+                        f"{r['rejax_over_script_to_result_warm']:.2f}x / "
+                        + ("-" if both is None else f"{both:.2f}x"),
                         f"{_mean(j['final_return_per_seed']):.0f} / {_mean(p['final_per_seed']):.0f}"])
         return out
 
@@ -756,8 +766,9 @@ def rejax() -> str:
                       "PATH"), (_gpu("rejax_peer"), "python -m benchmarks.rejax_peer on a GPU")],
                     ["machine", "seeds", "rejax: compile + run", "our program: compile + run",
                      "our script: run (/ program)",
-                     "process start to result: rejax / ours cold / ours warm",
-                     "rejax / ours, cold / warm", "final return rejax / ours"],
+                     "process start to result: rejax / rejax, its cache warm / ours cold / "
+                     "ours warm",
+                     "rejax / ours: cold / ours warm / both warm", "final return rejax / ours"],
                     rows)
 
 
@@ -769,12 +780,19 @@ def _target_rejax(key: str, limit: float, above: bool):
     for name in names:
         where = "CPU" if name.endswith("-cpu") else "GPU"
         for r in _load(name)["result"]["rows"]:
+            if key not in r:  # a file from before the figure was measured
+                parts.append(f"{where} {r['seeds']} seed(s) not measured yet")
+                met = None if met else met
+                continue
             devices = r["script_warm"].get("seed_devices", 1)  # the program ran on one
-            parts.append(f"{where} {r['seeds']} seed(s) {r[key]:.2f}x"
-                         + (f" (the script on {devices} devices)"
-                            if devices > 1 and key == "script_over_program" else ""))
-            met = met and (r[key] >= limit if above else r[key] <= limit)
-    return names, [("; ".join(parts), met if len(names) == 2 or not met else None)]
+            if devices > 1 and key == "script_over_program":  # not the same program
+                parts.append(f"{where} {r['seeds']} seed(s) {r[key]:.2f}x (the script on "
+                             f"{devices} devices, the program on one: not counted)")
+                continue
+            parts.append(f"{where} {r['seeds']} seed(s) {r[key]:.2f}x")
+            if met is not None:
+                met = met and (r[key] >= limit if above else r[key] <= limit)
+    return names, [("; ".join(parts), met if len(names) == 2 or met is False else None)]
 
 
 def _target_evaluation_share():
@@ -920,7 +938,8 @@ def _target_sweep(kind: str, limit: Optional[float]):
     warm = f", warm {r['warm']['ratio']:.2f}x" if "warm" in r else ""
     figure = (f"{r['settings']} x {r['seeds']} in {ratios[0]:.2f}x the time of "
               f"{r['cold']['separate']['runs']} separate run(s) (cold{warm})")
-    return [name], [(figure, True if limit is None else all(x <= limit for x in ratios))]
+    return [name], [(figure, "reported" if limit is None
+                     else all(x <= limit for x in ratios))]
 
 
 TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, False or None)])
@@ -930,7 +949,7 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("CPU: ≥ 70 % of the 1024^3 matmul rate", "Gradient updates", _target_cpu_updates, 1),
     ("CPU: the README's command delivers a policy scoring ≥ 950 in Gymnasium for ≥ 10 seeds "
      "and all of a `--seeds 32` run; process start to that policy ≤ 10 s warm (slowest seed), "
-     "≤ 25 s cold (a quiet machine)", "Delivered policy",
+     "≤ 25 s cold (a quiet machine; slowest of the cold runs)", "Delivered policy",
      _target_delivered_cpu, 0),
     ("Presets `cleanrl`, `pendulum`, `v1` and InvertedDoublePendulum deliver the solved "
      "return on 4 of 4 seeds (GPU)", "Delivered policy", _target_presets, 0),
@@ -939,10 +958,11 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
     ("Brax's SAC on the same physics: ahead on time to solve and env steps/s",
      "Brax's SAC and the PyTorch seed on the same task", _target_brax, 0),
     ("GPU: ≥ 3M env steps/s", "Environment throughput", _target_env_gpu, 0),
-    ("Following a run (progress, TensorBoard, checkpoints): ≤ 5 % of its time on the host",
+    ("Following a run (progress, TensorBoard, checkpoints): ≤ 5 % of its time on the host, "
+     "CPU presets and 256 seeds on one GPU",
      "Following a run", _target_progress, 0),
     ("Following a run costs ≤ 2 % of the bare chunked run (followed / chunks), on the CPU "
-     "and on one H100 with 256 seeds", "Following a run", _target_checkpoint_cost, 0),
+     "and on one GPU with 256 seeds", "Following a run", _target_checkpoint_cost, 0),
     ("Memory: the estimate (`sac_jax.memory`) within 25 % of the measured peak, 1 to 64 seeds, "
      "10^4 to 10^7 slots (CPU: peak RSS; GPU: peak device bytes)", "Scale", _target_memory, 0),
     ("Memory: peak bytes per replay slot ≤ 1.15x the slot's own data, CPU and GPU", "Scale",
@@ -959,9 +979,10 @@ TARGETS = [  # (target, section, () -> ([results files], [(figure, met: True, Fa
      lambda: _target_rejax("script_over_program", 1.15, False), 0),
     ("Evaluation ≤ 10 % of a run that evaluates every 500 steps (rejax's Pendulum-v1 SAC, "
      "our program)", "rejax", _target_evaluation_share, 0),
-    ("End to end through `scripts/train.py` (warm cache): ≥ 2x rejax, each from its process's "
-     "start to its trained result, 1 and 16 seeds on 2 CPU cores, 1 and 256 on one GPU", "rejax",
-     lambda: _target_rejax("rejax_over_script_to_result_warm", 2.0, True), 0),
+    ("End to end through `scripts/train.py`: ≥ 2x rejax, each from its process's start to its "
+     "trained result with JAX's compilation cache warm, 1 and 16 seeds on 2 CPU cores, 1 and "
+     "256 on one GPU", "rejax",
+     lambda: _target_rejax("rejax_warm_over_script_to_result_warm", 2.0, True), 0),
     ("`fast` preset cold compile (`scripts/train.py`, empty cache) ≤ 10 s, on 2 CPU cores and "
      "on one H100", "Delivered policy", _target_cold_compile, 0),
     ("Playground adapter overhead ≤ 5 % of the raw task step (pendulum family, CPU and GPU)",
@@ -986,7 +1007,7 @@ def targets() -> str:
         names, results = found
         figure, met = results[index]
         dates = sorted({_date(_load(n)) for n in names})
-        status = {True: "**met**", False: "not met", None: "not all measured"}[met]
+        status = {True: "**met**", False: "not met", None: "not all measured"}.get(met, met)
         rows.append([target, figure, status, section,
                      ", ".join(f"`{n}.json`" for n in names) + f" ({', '.join(dates)})"])
     return _table(["target", "latest figure", "status", "section", "results (date)"], rows)
