@@ -25,11 +25,19 @@ def enable_compilation_cache(directory: Optional[str] = None) -> Optional[str]:
     except OSError as error:
         warnings.warn(f"compilation cache {directory}: not writable ({error.strerror}); "
                       "compiling without it", stacklevel=2)
+        disable_compilation_cache()
         return None
+    jax.config.update("jax_enable_compilation_cache", True)
     jax.config.update("jax_compilation_cache_dir", directory)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     return directory
+
+
+def disable_compilation_cache() -> None:
+    """Turns both caches off (`--no-cache`), even where $JAX_COMPILATION_CACHE_DIR, which JAX
+    reads itself, names a directory."""
+    jax.config.update("jax_enable_compilation_cache", False)
 
 
 def active_directory() -> Optional[str]:

@@ -7,11 +7,14 @@ argument shapes, as a function of the arguments' flat leaves, serialized by `jax
 file named by a hash of everything the trace depends on:
     what the caller names (e.g. the configuration and the number of seeds),
     the arguments' leaves (their paths in the tree, shapes and dtypes) and the platform,
+    JAX's settings that change a trace (`TRACE_SETTINGS`: x64, matmul precision, PRNG),
     the versions of Python, jax, jaxlib, flax, optax, distrax, mujoco and mujoco-mjx,
     the source of every module of `sac_jax` and `envs` (and the environments' assets).
 A later process reads the file, compiles the deserialized program (`Exported.call` under
 `jax.jit`; the persistent compilation cache then supplies the executable) and rebuilds the
-result's tree from the structure the caller states. Each file starts with MAGIC and the SHA-256
+result's tree from the structure the caller states. A program `jax.export` cannot serialize
+(custom calls without its compatibility guarantee, such as MuJoCo Warp's, or host callbacks) is
+lowered afresh in every process, without a file. Each file starts with MAGIC and the SHA-256
 of the serialized program: a file whose bytes do not match (damaged on disk) is traced again
 and replaced, with one warning; one that cannot be read otherwise (e.g. from an incompatible
 jax) is traced again silently. Files are written under a temporary name and renamed.
@@ -39,6 +42,10 @@ PACKAGES = ("jax", "jaxlib", "flax", "optax", "distrax", "mujoco", "mujoco-mjx",
 programs contain."""
 SOURCE_PACKAGES = ("sac_jax", "envs")
 """Packages whose source files (and assets) are hashed into every key."""
+TRACE_SETTINGS = ("jax_enable_x64", "jax_default_matmul_precision", "jax_threefry_partitionable",
+                  "jax_default_prng_impl", "jax_numpy_dtype_promotion", "jax_numpy_rank_promotion")
+"""JAX settings that change what a trace produces, read as they stand (a context manager's
+included) into every key."""
 
 
 @functools.lru_cache(maxsize=1)
@@ -70,7 +77,8 @@ def program_file(name: str, args: Sequence[Any]) -> str:
     leaves = [(jax.tree_util.keystr(path), tuple(x.shape), str(x.dtype))
               for path, x in jax.tree_util.tree_flatten_with_path(list(args))[0]]
     digest = hashlib.sha256()
-    for part in (name, repr(leaves), jax.default_backend(), platform.machine(),
+    settings = repr([(s, getattr(jax.config, s, None)) for s in TRACE_SETTINGS])
+    for part in (name, repr(leaves), jax.default_backend(), platform.machine(), settings,
                  _code_fingerprint()):
         digest.update(part.encode())
         digest.update(b"\0")
@@ -130,17 +138,30 @@ def cached_lower(fn: Callable, name: str, args: Sequence[Any], result: Any, dire
         return out
 
     path = os.path.join(directory, program_file(f"{name} {placement!r}", avals))
+    donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
     exported = _read(path)
     if exported is None:
-        exported = export.export(jax.jit(flat, **placement))(*leaves)
+        try:
+            exported = export.export(jax.jit(flat, **placement))(*leaves)
+        except (ValueError, NotImplementedError) as error:
+            if not _unserializable(error):
+                raise
+            return CachedLowered(jax.jit(flat, donate_argnums=donated, **placement).lower(
+                *leaves), result_tree)
         try:
             _write(path, exported)
         except OSError as error:  # a full or read-only disk: the next process traces again
             warnings.warn(f"cached program {path}: not written ({error.strerror})",
                           stacklevel=2)
-    donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
     return CachedLowered(jax.jit(exported.call, donate_argnums=donated, **placement).lower(
         *leaves), result_tree)
+
+
+def _unserializable(error: Exception) -> bool:
+    """Whether `jax.export` refused a program for what it holds: custom calls without its
+    compatibility guarantee (ValueError "Cannot serialize code with custom calls ...", e.g.
+    MuJoCo Warp's) or host callbacks (NotImplementedError)."""
+    return isinstance(error, NotImplementedError) or "custom call" in str(error)
 
 
 def _per_leaf(shardings: Any, tree: Any) -> list:

@@ -406,6 +406,8 @@ def main(argv=None) -> int:
     sweep["points"] = points
     if args.cache:
         sac_jax.enable_compilation_cache(args.cache_dir)
+    else:
+        sac_jax.compilation_cache.disable_compilation_cache()
     print(f"sweep of {len(points)} setting(s) x {sweep['seeds']} seed(s) in {len(programs)} "
           f"program(s) ({sweep['preset']} on {sweep['config'].env}) -> {out}", flush=True)
     stop = StopRequest()

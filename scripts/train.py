@@ -208,6 +208,8 @@ def main(argv=None) -> int:
         return fail(error, 2)
     if args.cache:
         sac_jax.enable_compilation_cache(args.cache_dir)
+    else:
+        sac_jax.compilation_cache.disable_compilation_cache()
     seeds = info.seeds
     budget = (f"up to {config.run_steps} steps each (a seed stops once its delivered policy "
               f"scores {config.stop_at:g} over {config.stop_measurements} measurement"

@@ -36,7 +36,7 @@ import jax
 import pytest
 
 import sac_jax
-from sac_jax import checkpoint, metric_writers, run_checkpoint
+from sac_jax import checkpoint, compilation_cache, metric_writers, run_checkpoint
 from sac_jax import run as training
 from sac_jax.position import Position
 from scripts import evaluate as evaluate_script
@@ -294,24 +294,36 @@ def test_an_out_that_cannot_be_created_ends_with_one_line_and_leaves_nothing(tmp
     assert sorted(os.listdir(tmp_path)) == ["file"]
 
 
-def test_an_unwritable_cache_directory_trains_on_without_it(tmp_path, recwarn):
-    """One warning naming the directory; the run finishes and writes its results."""
-    (tmp_path / "file").write_text("mine")
-    cache = str(tmp_path / "file" / "cache")
-    out = str(tmp_path / "run")
-    assert train_script.main(SMALL_RUN + ["--cache-dir", cache, "--out", out]) == 0
-    messages = [str(w.message) for w in recwarn if "compilation cache" in str(w.message)]
-    assert messages == [f"compilation cache {cache}: not writable (Not a directory); "
-                        "compiling without it"], messages
-    assert os.path.exists(os.path.join(out, "summary.json"))
-
-
 @pytest.fixture
 def cache_dir(tmp_path):
     """A compilation cache directory of the test's own; the session's is restored after."""
     before = jax.config.jax_compilation_cache_dir
     yield str(tmp_path / "cache")
     jax.config.update("jax_compilation_cache_dir", before)
+    jax.config.update("jax_enable_compilation_cache", True)
+
+
+def test_an_unwritable_cache_directory_trains_on_without_it(tmp_path, recwarn, cache_dir):
+    """One warning naming the directory; the run finishes and writes its results, with both
+    caches off even where JAX already had a directory (as from $JAX_COMPILATION_CACHE_DIR)."""
+    (tmp_path / "file").write_text("mine")
+    cache = str(tmp_path / "file" / "cache")
+    out = str(tmp_path / "run")
+    jax.config.update("jax_compilation_cache_dir", cache_dir)  # as JAX reads it from the env
+    assert train_script.main(SMALL_RUN + ["--cache-dir", cache, "--out", out]) == 0
+    messages = [str(w.message) for w in recwarn if "compilation cache" in str(w.message)]
+    assert messages == [f"compilation cache {cache}: not writable (Not a directory); "
+                        "compiling without it"], messages
+    assert os.path.exists(os.path.join(out, "summary.json"))
+    assert compilation_cache.program_directory() is None
+    assert not os.path.exists(os.path.join(cache_dir, "programs"))  # no traced program kept
+
+
+def test_no_cache_turns_off_a_cache_jax_was_given(tmp_path, cache_dir):
+    jax.config.update("jax_compilation_cache_dir", cache_dir)  # as JAX reads it from the env
+    assert train_script.main(SMALL_RUN + ["--no-cache", "--out", str(tmp_path / "run")]) == 0
+    assert compilation_cache.active_directory() is None
+    assert not os.path.exists(os.path.join(cache_dir, "programs"))  # no traced program kept
 
 
 def test_a_damaged_cached_program_is_traced_again_with_one_warning(tmp_path, cache_dir,

@@ -58,6 +58,17 @@ def test_the_file_name_depends_on_name_shapes_and_dtypes():
     assert program_file("step", [state]) == program_file("step", [_state()])
 
 
+def test_the_file_name_depends_on_jaxs_trace_settings():
+    """A program traced under another matmul precision or PRNG setting is another program."""
+    args = [jnp.zeros(3)]
+    plain = program_file("p", args)
+    with jax.default_matmul_precision("highest"):
+        assert program_file("p", args) != plain
+    with jax.threefry_partitionable(not jax.config.jax_threefry_partitionable):
+        assert program_file("p", args) != plain
+    assert program_file("p", args) == plain
+
+
 def test_a_damaged_file_is_traced_again_and_replaced(tmp_path):
     calls = []
     step = _step_counting_traces(calls)
@@ -76,6 +87,18 @@ def test_the_first_argument_is_donated_when_asked(tmp_path):
                            str(tmp_path), donate_first=True).compile()
     program(state, scale)
     assert state["x"].is_deleted() and not scale.is_deleted()
+
+
+def test_a_program_jax_export_cannot_keep_is_lowered_without_a_file(tmp_path):
+    """A host callback (as MuJoCo Warp's custom calls) cannot be serialized: the program is
+    lowered as `jax.jit` lowers it, computes the same, and leaves no file."""
+    f = lambda x: jax.pure_callback(lambda a: np.asarray(a) * 2,
+                                    jax.ShapeDtypeStruct((3,), jnp.float32), x) + 1
+    x = jnp.arange(3.0)
+    for _ in range(2):
+        program = cached_lower(f, "callback", [x], x, str(tmp_path)).compile()
+        np.testing.assert_array_equal(program(x), [1.0, 3.0, 5.0])
+    assert os.listdir(tmp_path) == []
 
 
 def test_a_result_of_another_structure_is_refused(tmp_path):
