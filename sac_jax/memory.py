@@ -211,9 +211,21 @@ def describe(run: MemoryNeed, free: Optional[int], where: str) -> str:
 def check(config: SACConfig, seeds: int) -> str:
     """The run's memory line (`describe`); `MemoryRefused` (one line: the need, what is
     available, the flags that shrink it) if its peak exceeds the available memory, a
-    checkpoint's copy left out where it does not fit (`copy_fits`)."""
-    free, where = available()
-    run = need(config, seeds, where, available=free)
+    checkpoint's copy left out where it does not fit (`copy_fits`). Seeds split over several
+    accelerators (`parallel.seed_devices`) are checked per device: each device's share of
+    the seeds against the least free memory among them; a CPU's devices share the host's."""
+    from sac_jax import parallel
+
+    devices = parallel.seed_devices(seeds)
+    free, where = available(devices[0])
+    if where != "cpu" and len(devices) > 1:
+        frees = [available(d)[0] for d in devices]
+        free = None if None in frees else min(frees)
+        seeds_each = seeds // len(devices)
+        run = need(config, seeds_each, where, available=free)
+        where = f"{where} (each of {len(devices)} devices, {seeds_each} seeds each)"
+    else:
+        run = need(config, seeds, where, available=free)
     if free is not None and run.peak > free:
         raise MemoryRefused(
             f"{seeds} seed(s) of buffer_size={config.buffer_size} need {gigabytes(run.peak)} "

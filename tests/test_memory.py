@@ -71,6 +71,24 @@ def test_the_library_entry_point_refuses_it_too(machine_of_24_gb):
     assert run.compiled_program.cache_info().currsize == 0  # nothing was compiled
 
 
+def test_seeds_split_over_accelerators_are_checked_against_each_devices_memory(monkeypatch):
+    """64 seeds over 8 GPUs hold 8 seeds on each: a run that fits each device's free memory
+    is accepted (compared with one device's memory it had been refused), and one that does not
+    is refused naming the split."""
+    config = sac_jax.PRESETS["fast"].replace(buffer_size=1_000_000, total_steps=1_000_000)
+    eight = memory.need(config, 8, "gpu").peak
+    monkeypatch.setattr(sac_jax.parallel, "seed_devices", lambda seeds: [object()] * 8)
+    free = {"bytes": int(eight * 1.5)}
+    monkeypatch.setattr(memory, "available", lambda device=None: (free["bytes"], "gpu"))
+    line = memory.check(config, 64)
+    assert line.endswith("available on gpu (each of 8 devices, 8 seeds each)"), line
+    free["bytes"] = int(eight * 0.2)  # under the need even without a checkpoint copy
+    with pytest.raises(memory.MemoryRefused,
+                       match=r"^64 seed\(s\) of buffer_size=1000000 need .* available on gpu "
+                             r"\(each of 8 devices, 8 seeds each\): lower"):
+        memory.check(config, 64)
+
+
 def test_a_checkpoint_copy_counts_only_where_it_fits_beside_the_data():
     """`copy_fits`: room for the copy and as much again beside the run's data; else the need
     leaves the copy out (checkpoints are then written in line) and the line says so."""
