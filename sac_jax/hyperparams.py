@@ -91,11 +91,22 @@ def stack(configs: Sequence[SACConfig]) -> Dict[str, jax.Array]:
             if len(set(values := [getattr(h, name) for h in each])) > 1}
 
 
+def run_index(setting: int, seed: int, seeds: int) -> int:
+    """The run that trains seed `seed` (of `seeds`) of setting `setting` in a program of a
+    sweep: runs are setting-major, each setting's seeds together."""
+    return setting * seeds + seed
+
+
+def setting_of(run: int, seeds: int) -> int:
+    """The setting that run `run` of a sweep's program trains (`run_index`'s inverse)."""
+    return run // seeds
+
+
 def sweep(config: SACConfig, settings: Optional[Mapping[str, Sequence[float]]], seeds: int
           ) -> Tuple[List[SACConfig], Dict[str, jax.Array]]:
     """(configs, values) of a sweep of S settings x `seeds` seeds: configs[i] is `config` with
     setting i's values {name: values[i]} applied (validated); values, the `stack` of S x seeds
-    runs, setting-major (run r trains configs[r // seeds]). ([config], {}) for no settings.
+    runs, setting-major (run r trains configs[setting_of(r, seeds)]). ([config], {}) for no settings.
     ValueError naming a bad name, a bad value or unequal lengths."""
     if not settings:
         return [config], {}
@@ -103,10 +114,13 @@ def sweep(config: SACConfig, settings: Optional[Mapping[str, Sequence[float]]], 
     if unknown:
         raise ValueError(f"settings: {unknown[0]} is not a hyperparameter one program can "
                          f"vary; those are {list(NAMES)}")
+    for name, values in settings.items():
+        if isinstance(values, (str, bytes)) or not isinstance(values, Sequence):
+            raise ValueError(f"settings: {name}={values!r}: expected a list of values")
     lengths = {name: len(values) for name, values in settings.items()}
     if min(lengths.values()) < 1 or len(set(lengths.values())) > 1:
         raise ValueError("settings: every hyperparameter needs the same number (>= 1) of "
                          f"values, got {lengths}")
     configs = [config.replace(**{name: values[i] for name, values in settings.items()})
                for i in range(next(iter(lengths.values())))]
-    return configs, stack([c for c in configs for _ in range(seeds)])
+    return configs, stack([configs[setting_of(r, seeds)] for r in range(len(configs) * seeds)])

@@ -310,7 +310,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                         available=memory.available()[0])
     if resume is None:
         keys = jax.random.split(jax.random.key(seed), seed_keys)
-        if len(configs) > 1:  # every setting trains the same keys
+        if len(configs) > 1:  # every setting trains the same keys (hyperparams.run_index)
             keys = jnp.concatenate([keys] * len(configs))
         runner = init(keys, *([values] if values else []))
         position = Position(startup_s=t0 - (t0 if started is None else started))

@@ -82,7 +82,8 @@ def load_policy(path: str, seed: int = 0, which: Literal["best", "last"] = "best
         which = "last"
     params = runner.delivered.actor_params if which == "best" else runner.sac.actor_params
     # a sweep's run: its setting's config (`sac_jax.hyperparams.sweep`, setting-major)
-    config = hyperparams.sweep(config, info.settings, 1)[0][int(seed) // info.seeds]
+    config = hyperparams.sweep(config, info.settings, 1)[0][hyperparams.setting_of(
+        int(seed), info.seeds)]
     agent, _ = agent_for(config)
     params = jax.device_put(jax.tree_util.tree_map(lambda x: x[int(seed)], params))
     return SavedPolicy(config, info, int(seed), agent, params, which)

@@ -129,8 +129,8 @@ def _numeric_fields() -> Dict[str, type]:
 
 def parse_sets(sets: Sequence[str]) -> Dict[str, List]:
     """{field: values} from `--set FIELD=V1,V2,...` flags, in the order given. ValueError (one
-    line naming the flag) for an unknown or non-numeric field, a repeated field, an empty list
-    or a value that is not a number of the field's type."""
+    line naming the flag) for an unknown or non-numeric field, a repeated field, an empty list,
+    a value that is not a number of the field's type or one given twice."""
     numeric, grid = _numeric_fields(), {}
     known = {f.name for f in dataclasses.fields(SACConfig)}
     for text in sets:
@@ -155,6 +155,10 @@ def parse_sets(sets: Sequence[str]) -> Dict[str, List]:
             except ValueError:
                 wanted = "an integer" if kind is int else "a number"
                 raise ValueError(f"--set {name}={item!r}: not {wanted}") from None
+        repeated = sorted({v for v in parsed if parsed.count(v) > 1})
+        if repeated:  # two settings of one value would be one run reported twice
+            raise ValueError(f"--set {name}: {', '.join(map(str, repeated))} given more than "
+                             "once")
         grid[name] = parsed
     return grid
 
@@ -294,7 +298,7 @@ def _rows(sweep: dict, programs: List[Program], out: str) -> List[dict]:
                 last[int(record["seed"])] = record  # the last evaluation point of each run
         for position, index in enumerate(program.indices):
             for seed in range(sweep["seeds"]):
-                run = position * sweep["seeds"] + seed
+                run = hyperparams.run_index(position, seed, sweep["seeds"])
                 record = last.get(run, {})
                 rows.append({
                     "setting": index, **sweep["points"][index], "seed": seed, "program": i,
@@ -320,12 +324,14 @@ def _write_csv(out: str, rows: List[dict]) -> None:
 
 def best_setting(rows: List[dict], count: int) -> Tuple[int, float]:
     """(setting, its mean delivered return): the highest mean delivered return over its seeds,
-    ties to the earliest mean solved step (never solved counting as infinitely late)."""
+    ties to the earliest mean solved step (never solved counting as infinitely late). A seed
+    that delivered no actor (a non-finite return: its state went non-finite before its first
+    point) counts as -inf, so its setting ranks below every setting whose seeds all delivered."""
     def score(setting):
         mine = [r for r in rows if r["setting"] == setting]
         returns = [r["delivered_return"] for r in mine]
-        finite = [x for x in returns if math.isfinite(x)]
-        mean = sum(finite) / len(finite) if finite else -math.inf
+        mean = (sum(returns) / len(returns) if returns and all(map(math.isfinite, returns))
+                else -math.inf)
         steps = [math.inf if r["solved_at_step"] is None else r["solved_at_step"] for r in mine]
         return mean, -sum(steps) / len(steps)
 
@@ -363,7 +369,8 @@ def _write_plot(out: str, sweep: dict, rows: List[dict], programs: List[Program]
         with open(os.path.join(_program_dir(out, i), "metrics.csv")) as f:
             records = list(csv.DictReader(f))
         for position, index in enumerate(program.indices):
-            mine = [r for r in records if int(r["seed"]) // sweep["seeds"] == position]
+            mine = [r for r in records
+                    if hyperparams.setting_of(int(r["seed"]), sweep["seeds"]) == position]
             steps = sorted({int(float(r["env_steps"])) for r in mine})
             curve = [np.nanmean([float(r["eval_return"]) for r in mine
                                  if int(float(r["env_steps"])) == s]) for s in steps]

@@ -8,6 +8,7 @@ tests/test_train.py (`test_a_sweep_equals_separate_runs_of_its_settings`)."""
 import contextlib
 import csv
 import io
+import math
 import os
 import shutil
 
@@ -93,14 +94,16 @@ def test_the_best_setting_is_printed_as_a_train_command(sweeps):
 
 def test_the_best_setting_breaks_a_tie_by_the_earliest_mean_solved_step():
     """Equal mean returns: the setting whose seeds were solved sooner on average wins, one never
-    solved counting as the latest; a NaN return is left out of its setting's mean."""
+    solved counting as the latest; a seed that delivered no actor (a NaN or -inf return) puts
+    its setting below every setting whose seeds all delivered, however high its others."""
     row = lambda setting, ret, step: dict(setting=setting, delivered_return=ret,
                                           solved_at_step=step)
     rows = [row(0, 900.0, 5000), row(0, 1000.0, None), row(1, 950.0, 7000),
-            row(1, 950.0, 9000), row(2, 950.0, 9000), row(2, float("nan"), 9000)]
-    assert sweep_script.best_setting(rows, 3) == (1, 950.0)  # means all 950; 8000 before 9000
-    rows[4] = row(2, 950.0, 6000)
-    assert sweep_script.best_setting(rows, 3) == (2, 950.0)  # 7500 before 8000
+            row(1, 950.0, 9000), row(2, 950.0, 9000), row(2, float("nan"), 9000),
+            row(3, 2000.0, 1000), row(3, -math.inf, None)]
+    assert sweep_script.best_setting(rows, 4) == (1, 950.0)  # 0 and 1 at 950; 8000 before inf
+    rows[5] = row(2, 950.0, 6000)
+    assert sweep_script.best_setting(rows, 4) == (2, 950.0)  # 7500 before 8000
 
 
 def test_train_command_round_trips_every_kind_of_flag():
@@ -143,6 +146,7 @@ def test_settings_that_change_a_shape_get_a_program_each():
     (["--set", "actor_lr=1e-3,-1"], "error: --set setting actor_lr=-1: SACConfig.actor_lr=-1.0: "
                                     "must be > 0"),
     (["--set", "tau=0.1", "--set", "tau=0.2"], "error: --set tau: given twice"),
+    (["--set", "batch_size=64,128,64"], "error: --set batch_size: 64 given more than once"),
     (["--set", "actor_lr"], "error: --set 'actor_lr': expected FIELD=V1,V2,..."),
     ([], "error: --set: give at least one FIELD=V1,V2,... to sweep"),
     (["--resume", "x", "--set", "tau=0.1"], "error: --resume=x: a resumed sweep keeps its own "

@@ -170,3 +170,9 @@ def test_the_iterations_parts_carry_the_named_scopes_profiles_sum_by():
                 yield from scopes(sub)
 
     assert set(PARTS) <= set(scopes(jaxpr.jaxpr))
+
+
+def test_hyperparams_sweep_refuses_a_value_that_is_not_a_list():
+    with pytest.raises(ValueError, match=r"^settings: actor_lr=0\.001: expected a list of values$"):
+        sac_jax.hyperparams.sweep(CONFIG, {"actor_lr": 1e-3}, 2)
+    assert sac_jax.hyperparams.setting_of(sac_jax.hyperparams.run_index(2, 1, 3), 3) == 2
