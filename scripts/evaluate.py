@@ -178,7 +178,8 @@ def main(argv=None) -> int:
     if args.json:
         print(json.dumps(results))
         return 0
-    print(f"{config.env}, seed {args.seed} of {args.run}, {policy.which} policy:")
+    name = {"best": "delivered"}.get(policy.which, policy.which)  # "best" names the delivered
+    print(f"{config.env}, seed {args.seed} of {args.run}, {name} policy:")
     for name in ("ours", "gymnasium"):
         if name in results:
             r = results[name]
