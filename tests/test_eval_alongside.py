@@ -58,10 +58,16 @@ def test_selection_follows_its_rules_with_and_without_the_kept_actors_returns(ru
     kept actor's return was used where it was still the kept actor and not after a
     replacement had overtaken its measurement."""
     alongside = {name: values[DEPTH:CONFIG.num_evals - 1] for name, values in runs[True][1].items()}
-    scores = replay_selection(alongside)[0]
+    scores, points, _ = replay_selection(alongside)
     np.testing.assert_array_equal(alongside["delivered_return"], scores)
     used = ~np.isnan(alongside["kept_return"])
     assert used[1:].any() and not used[1:].all()
+    # which point's actor is kept after each row (none before the first); the evaluation
+    # scored at row j began at row j - D beside the actor kept then, whose return counts iff
+    # that actor is still the kept one (not implied by the replay, which reads `used`)
+    kept = lambda j: points[j] if j >= 0 else -1
+    expected = [kept(j - 1) == kept(j - DEPTH) != -1 for j in range(len(points))]
+    np.testing.assert_array_equal(used[1:], expected[1:])
 
 
 def test_unchanged_training_and_everything_scored(runs):
