@@ -386,6 +386,8 @@ def _write_plot(out: str, sweep: dict, rows: List[dict], programs: List[Program]
 
 
 def main(argv=None) -> int:
+    # a CPU's seeds split over its cores; first, before JAX starts (here or from `sac-jax`)
+    parallel.cpu_device_per_core()
     try:
         args = parse_args(argv)
         if args.resume:
@@ -453,5 +455,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    parallel.cpu_device_per_core()  # a CPU's seeds split over its cores
     run_main(main)

@@ -198,6 +198,8 @@ def _outcome(summary: dict) -> str:
 
 
 def main(argv=None) -> int:
+    # a CPU's seeds split over its cores; first, before JAX starts (here or from `sac-jax`)
+    parallel.cpu_device_per_core()
     try:
         args = parse_args(argv)
         if args.resume:
@@ -253,5 +255,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    parallel.cpu_device_per_core()  # a CPU's seeds split over its cores
     run_main(main)

@@ -1,12 +1,17 @@
 """Shared test setup: JAX's persistent compilation cache, so MJX programs compile once per
-machine; the float64 comparisons of tests/parallel_checks.py, measured once per session for
-test_parallel.py and test_train.py (one subprocess, whose compiled programs they share)."""
+machine; JAX's backends started at once, so that the scripts' `main` called in this process
+(which asks for a CPU device per core, `parallel.cpu_device_per_core`, before JAX starts) keeps
+one device whichever test runs first; the float64 comparisons of tests/parallel_checks.py,
+measured once per session for test_parallel.py and test_train.py (one subprocess, whose
+compiled programs they share)."""
 
+import jax
 import pytest
 
 from sac_jax.compilation_cache import enable_compilation_cache
 
 enable_compilation_cache()
+jax.devices()
 
 
 @pytest.fixture(scope="session")
