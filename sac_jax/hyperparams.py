@@ -106,8 +106,8 @@ def sweep(config: SACConfig, settings: Optional[Mapping[str, Sequence[float]]], 
           ) -> Tuple[List[SACConfig], Dict[str, jax.Array]]:
     """(configs, values) of a sweep of S settings x `seeds` seeds: configs[i] is `config` with
     setting i's values {name: values[i]} applied (validated); values, the `stack` of S x seeds
-    runs, setting-major (run r trains configs[setting_of(r, seeds)]). ([config], {}) for no settings.
-    ValueError naming a bad name, a bad value or unequal lengths."""
+    runs, setting-major (run r trains configs[setting_of(r, seeds)]). ([config], {}) for no
+    settings. ValueError naming a bad name, a bad value or unequal lengths."""
     if not settings:
         return [config], {}
     unknown = sorted(set(settings) - set(NAMES))
