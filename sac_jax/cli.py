@@ -17,6 +17,7 @@ import math
 import shutil
 import signal
 import sys
+import threading
 from typing import (TYPE_CHECKING, Any, Dict, Literal, NoReturn, Optional, Sequence, Tuple, Type,
                     TypeVar)
 
@@ -307,11 +308,15 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
 
     checkpoints = run_checkpoint.CheckpointWriter(out)
     notice = stop.notice = CompileNotice()
+
+    def ready(seconds):
+        notice.ready(seconds)
+        threading.Thread(target=plots.prepare, name="plots.prepare", daemon=True).start()
     try:
         try:
             result = run_training(
                 config, seeds=seeds, seed=seed, settings=settings, resume=resume,
-                on_ready=notice.ready, on_point=on_point, on_checkpoint=checkpoints.save,
+                on_ready=ready, on_point=on_point, on_checkpoint=checkpoints.save,
                 should_stop=lambda: stop.signal is not None, started=started,
                 check_memory=False, stop_on_non_finite=stop_on_non_finite)  # checked before
         finally:

@@ -1,38 +1,51 @@
-"""Traced programs kept on disk, so a second process neither traces nor compiles.
+"""Traced programs and their compiled executables kept on disk, so a second process neither
+traces nor compiles.
 
 JAX's persistent compilation cache keeps compiled executables, but finding one still needs the
-program traced in Python first, and tracing the MJX training chunk takes about 10 s on a CPU.
-`cached_lower` keeps the traced program as well: the lowered StableHLO of `fn` at the given
-argument shapes, as a function of the arguments' flat leaves, serialized by `jax.export`, in a
-file named by a hash of everything the trace depends on:
+program traced in Python and lowered first: tracing the MJX training chunk takes about 10 s on
+a CPU, and lowering and looking up even the small Pendulum-v1 chunk 0.4-0.6 s (on a CPU,
+lowering a deserialized program first imports scipy.linalg for LAPACK). So `cached_lower`
+keeps two files:
+* the traced program: the StableHLO of `fn` at the given argument shapes, as a function of the
+  arguments' flat leaves, serialized by `jax.export`, in a file named by a hash of everything
+  the trace depends on:
     what the caller names (e.g. the configuration and the number of seeds),
     the arguments' leaves (their paths in the tree, shapes and dtypes) and the platform,
     JAX's settings that change a trace (`TRACE_SETTINGS`: x64, matmul precision, PRNG),
     the versions of Python, jax, jaxlib, flax, optax, distrax, mujoco and mujoco-mjx,
-    the source of every module of `sac_jax` and `envs` (and the environments' assets).
-A later process reads the file, compiles the deserialized program (`Exported.call` under
-`jax.jit`; the persistent compilation cache then supplies the executable) and rebuilds the
-result's tree from the structure the caller states. A program `jax.export` cannot serialize
-(custom calls without its compatibility guarantee, such as MuJoCo Warp's, or host callbacks) is
-lowered afresh in every process, without a file. Each file starts with MAGIC and the SHA-256
-of the serialized program: a file whose bytes do not match (damaged on disk) is traced again
-and replaced, with one warning; one that cannot be read otherwise (e.g. from an incompatible
-jax) is traced again silently. Files are written under a temporary name and renamed.
+    the source of every module of `sac_jax` and `envs` (and the environments' assets);
+* the compiled executable (`jax.experimental.serialize_executable`), in a file named by a hash
+  of the computation (the program without source locations), the compiler options and the
+  machine (`executable_file`), written only by a process that compiled it.
+A later process reads the traced program, and loads the executable if there is one (nothing
+is lowered), else lowers the program (`Exported.call` under `jax.jit`) and compiles it (the
+persistent compilation cache supplies the executable if it has it); the result's tree is
+rebuilt from the structure the caller states. A program `jax.export` cannot serialize (custom
+calls without its compatibility guarantee, such as MuJoCo Warp's, or host callbacks) is
+lowered afresh in every process, without files. Each file starts with a magic line and the
+SHA-256 of the rest: a file whose bytes do not match (damaged on disk) is traced or compiled
+again and replaced, with one warning; one that cannot be read otherwise (e.g. from an
+incompatible jax) is traced or compiled again silently. Files are written under a temporary
+name and renamed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.metadata
 import os
 import platform
 import sys
+import threading
 import warnings
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable, Optional, Sequence, Tuple
 
 import jax
 from jax import export
+from jax.experimental import serialize_executable
+from jax.interpreters import mlir
 
 from sac_jax.whole_file import write_file
 
@@ -85,11 +98,25 @@ def program_file(name: str, args: Sequence[Any]) -> str:
     return digest.hexdigest()[:32] + ".jaxexport"
 
 
-MAGIC = b"sac-jax program 1\n"
-"""The first bytes of a file of this cache, before the SHA-256 of the rest."""
+MAGIC = b"sac-jax program 2\n"
+"""The first bytes of a traced program's file, before the SHA-256 of the rest (the program's
+`_computation` digest, then the serialized program)."""
 
 
-def _read(path: str) -> Optional[export.Exported]:
+def _computation(exported: export.Exported) -> bytes:
+    """SHA-256 of `exported`'s StableHLO printed without its source locations: the same for
+    the same computation traced from edited source, as JAX's persistent compilation cache keys
+    its executables (it strips debug information first). 0.03-0.05 s for `fast`'s chunk on 2
+    CPU cores, so it is computed once, when the program is traced, and stored with it."""
+    with mlir.make_ir_context():
+        module = exported.mlir_module(serialized=False)
+        return hashlib.sha256(module.operation.get_asm(enable_debug_info=False).encode()
+                              ).digest()
+
+
+def _read(path: str) -> Optional[Tuple[export.Exported, bytes]]:
+    """The traced program stored at `path` and its `_computation` digest; None if there is
+    none (with a warning where its bytes do not match their checksum)."""
     try:
         with open(path, "rb") as f:
             data = f.read()
@@ -101,28 +128,31 @@ def _read(path: str) -> Optional[export.Exported]:
                       "again", stacklevel=3)
         return None
     try:
-        return export.deserialize(bytearray(payload))
-    except Exception:  # from an incompatible jax: trace again
+        return export.deserialize(bytearray(payload[32:])), payload[:32]
+    except Exception:  # noqa: BLE001 (from an incompatible jax: trace again)
         return None
 
 
-def _write(path: str, exported: export.Exported) -> None:
+def _write(path: str, exported: export.Exported, computation: bytes) -> None:
     os.makedirs(os.path.dirname(path), exist_ok=True)
-    payload = bytes(exported.serialize())
+    payload = computation + bytes(exported.serialize())
     write_file(path, MAGIC + hashlib.sha256(payload).digest() + payload)
 
 
 def cached_lower(fn: Callable, name: str, args: Sequence[Any], result: Any, directory: str,
                  donate_first: bool = False, in_shardings: Optional[Sequence[Any]] = None,
-                 out_shardings: Any = None) -> "CachedLowered":
-    """`fn` lowered for arguments shaped like `args`, its traced program read from `directory`
-    if an earlier process left it there, else traced now and stored there. `result` has the
-    tree structure of what `fn` returns (e.g. the first argument, for a step function);
-    `donate_first` donates the first argument's buffers; `in_shardings` (one tree per argument)
-    and `out_shardings` (one tree), prefixes of `args` and `result` as `jax.jit`'s, place the
-    program on several devices (they are part of the file's key). As `jax.jit(fn).lower`, this
-    part holds Python's lock and `compile` does not: a thread can compile one program while the
-    caller traces the next."""
+                 out_shardings: Any = None, compiler_options: Optional[dict] = None
+                 ) -> "CachedLowered":
+    """`fn` for arguments shaped like `args`, to be compiled with `compiler_options`: its
+    traced program read from `directory` if an earlier process left it there (else traced now
+    and stored), and its compiled executable read from there too if one was stored for this
+    computation on this machine (then the program is not even lowered; else it is lowered
+    now). `result` has the tree structure of what `fn` returns (e.g. the first argument, for a
+    step function); `donate_first` donates the first argument's buffers; `in_shardings` (one
+    tree per argument) and `out_shardings` (one tree), prefixes of `args` and `result` as
+    `jax.jit`'s, place the program on several devices (they are part of the files' keys). As
+    `jax.jit(fn).lower`, this part holds Python's lock and `compile` does not: a thread can
+    compile one program while the caller traces the next."""
     avals = jax.tree_util.tree_map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), list(args))
     leaves, treedef = jax.tree_util.tree_flatten(avals)
     result_tree = jax.tree_util.tree_structure(result)
@@ -139,22 +169,129 @@ def cached_lower(fn: Callable, name: str, args: Sequence[Any], result: Any, dire
 
     path = os.path.join(directory, program_file(f"{name} {placement!r}", avals))
     donated = tuple(range(len(jax.tree_util.tree_leaves(avals[0])))) if donate_first else ()
-    exported = _read(path)
-    if exported is None:
+    stored = _read(path)
+    if stored is None:
         try:
             exported = export.export(jax.jit(flat, **placement))(*leaves)
         except (ValueError, NotImplementedError) as error:
             if not _unserializable(error):
                 raise
-            return CachedLowered(jax.jit(flat, donate_argnums=donated, **placement).lower(
-                *leaves), result_tree)
+            lowered = jax.jit(flat, donate_argnums=donated, **placement).lower(*leaves)
+            return CachedLowered(lambda: lowered, None, compiler_options, len(leaves),
+                                 result_tree)
+        stored = exported, _computation(exported)
         try:
-            _write(path, exported)
+            _write(path, *stored)
         except OSError as error:  # a full or read-only disk: the next process traces again
             warnings.warn(f"cached program {path}: not written ({error.strerror})",
                           stacklevel=2)
-    return CachedLowered(jax.jit(exported.call, donate_argnums=donated, **placement).lower(
-        *leaves), result_tree)
+    exported, computation = stored
+    executable = os.path.join(directory, executable_file(computation, donated,
+                                                         compiler_options))
+    return CachedLowered(lambda: jax.jit(exported.call, donate_argnums=donated,
+                                         **placement).lower(*leaves),
+                         executable, compiler_options, len(leaves), result_tree)
+
+
+@functools.lru_cache(maxsize=1)
+def _host_cpu() -> str:
+    """The CPU's model and feature flags (Linux's /proc/cpuinfo; else what `platform` says):
+    XLA compiles a CPU program for the features of the CPU it compiles on."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            lines = f.read().splitlines()
+        return repr([line for line in lines if line.startswith(("model name", "flags"))][:2])
+    except OSError:
+        return f"{platform.processor()} {platform.machine()}"
+
+
+def executable_file(computation: bytes, donated: Tuple[int, ...],
+                    compiler_options: Optional[dict]) -> str:
+    """The file name of the executable of the computation whose `_computation` digest is
+    `computation`, donating the arguments `donated`, compiled with `compiler_options` in this
+    process: a hash also of jax's and jaxlib's versions, the backend (platform, version, its
+    devices' kinds and ids, the default device), XLA's flags and, on a CPU, the CPU's model
+    and features, as JAX's persistent compilation cache keys its executables. Not of the
+    source: an edit that leaves the computation as it was finds its executable."""
+    devices = [(d.id, d.device_kind) for d in jax.local_devices()]
+    client = jax.local_devices()[0].client
+    digest = hashlib.sha256(computation)
+    for part in (repr(donated), repr(sorted((compiler_options or {}).items())),
+                 jax.__version__, jax.lib.__version__, client.platform,
+                 client.platform_version, repr(devices), repr(jax.config.jax_default_device),
+                 os.environ.get("XLA_FLAGS", ""),
+                 _host_cpu() if client.platform == "cpu" else ""):
+        digest.update(part.encode())
+        digest.update(b"\0")
+    return digest.hexdigest()[:32] + ".xla"
+
+
+_this_thread = threading.local()
+
+
+def _count_cache_hit(event: str, **_) -> None:
+    if event == "/jax/compilation_cache/cache_hits":
+        _this_thread.hits = _cache_hits() + 1
+
+
+jax.monitoring.register_event_listener(_count_cache_hit)
+
+
+def _cache_hits() -> int:
+    """How many executables JAX's persistent compilation cache has supplied on this thread.
+    Such an executable is not stored again: on a CPU the copy it serializes to runs nowhere
+    (jaxlib 0.10.2: "NOT_FOUND: Function iota_add_fusion not found" when called), its object
+    code left out; only one compiled in this process serializes whole."""
+    return getattr(_this_thread, "hits", 0)
+
+
+EXECUTABLE_MAGIC = b"sac-jax executable 1\n"
+"""The first bytes of an executable's file, before the SHA-256 of the rest (the ids of the
+devices it runs on, a newline, then `jax.experimental.serialize_executable`'s bytes)."""
+
+
+def _read_executable(path: str, arguments: int, results: int
+                     ) -> Optional[jax.stages.Compiled]:
+    """The executable stored at `path` (taking `arguments` arrays, returning a list of
+    `results`), loaded onto the devices it was compiled for; None if there is none, or one
+    that does not load (with a warning, and the file removed, where its bytes do not match
+    their checksum)."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError:
+        return None
+    start = len(EXECUTABLE_MAGIC)
+    digest, payload = data[start:start + 32], data[start + 32:]
+    if not data.startswith(EXECUTABLE_MAGIC) or hashlib.sha256(payload).digest() != digest:
+        warnings.warn(f"cached executable {path} is damaged (checksum mismatch); compiling it "
+                      "again", stacklevel=3)
+        with contextlib.suppress(OSError):  # replaced where this process compiles it
+            os.remove(path)
+        return None
+    header, serialized = payload.split(b"\n", 1)
+    try:
+        by_id = {d.id: d for d in jax.local_devices()}
+        devices = [by_id[int(i)] for i in header.split(b",")]
+        return serialize_executable.deserialize_and_load(
+            serialized, jax.tree_util.tree_structure((tuple(range(arguments)), {})),
+            jax.tree_util.tree_structure(list(range(results))), execution_devices=devices)
+    except Exception:  # noqa: BLE001 (e.g. devices this process lacks): compile again
+        return None
+
+
+def _write_executable(path: str, compiled: jax.stages.Compiled) -> None:
+    try:
+        serialized, _, _ = serialize_executable.serialize(compiled)
+    except (ValueError, NotImplementedError):  # an executable this backend cannot serialize
+        return
+    devices = ",".join(str(d.id) for d in compiled.runtime_executable().local_devices())
+    payload = devices.encode() + b"\n" + serialized
+    try:
+        write_file(path, EXECUTABLE_MAGIC + hashlib.sha256(payload).digest() + payload)
+    except OSError as error:  # a full or read-only disk: the next process compiles again
+        warnings.warn(f"cached executable {path}: not written ({error.strerror})",
+                      stacklevel=3)
 
 
 def _unserializable(error: Exception) -> bool:
@@ -173,15 +310,31 @@ def _per_leaf(shardings: Any, tree: Any) -> list:
 
 
 class CachedLowered:
-    """What `cached_lower` returns: `compile(compiler_options=None)` gives the `CachedProgram`
-    (the persistent compilation cache supplies the executable if it has it)."""
+    """What `cached_lower` returns: `compile()` gives the `CachedProgram`, the stored executable
+    if it loads, else the program lowered (at once, in `cached_lower`, where no executable was
+    stored) and compiled (the persistent compilation cache supplies the executable if it has
+    it), its executable then stored unless it came from that cache or `executable` is None
+    (a program `jax.export` cannot keep)."""
 
-    def __init__(self, lowered: jax.stages.Lowered, result_tree):
-        self._lowered, self._result_tree = lowered, result_tree
+    def __init__(self, lower: Callable[[], jax.stages.Lowered], executable: Optional[str],
+                 compiler_options: Optional[dict], arguments: int, result_tree):
+        self._lower, self._executable, self._options = lower, executable, compiler_options
+        self._arguments, self._result_tree = arguments, result_tree
+        stored = executable is not None and os.path.exists(executable)
+        self._lowered = None if stored else lower()
 
-    def compile(self, compiler_options: Optional[dict] = None) -> "CachedProgram":
-        return CachedProgram(self._lowered.compile(compiler_options=compiler_options),
-                             self._result_tree)
+    def compile(self) -> "CachedProgram":
+        if self._lowered is None:
+            compiled = _read_executable(self._executable, self._arguments,
+                                        self._result_tree.num_leaves)
+            if compiled is not None:
+                return CachedProgram(compiled, self._result_tree)
+            self._lowered = self._lower()
+        hits = _cache_hits()
+        compiled = self._lowered.compile(compiler_options=self._options)
+        if self._executable is not None and _cache_hits() == hits:  # compiled here
+            _write_executable(self._executable, compiled)
+        return CachedProgram(compiled, self._result_tree)
 
 
 class CachedProgram:

@@ -31,9 +31,10 @@ import envs
 from sac_jax import hyperparams, memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
-from sac_jax.parallel import seed_axis, seed_devices, seed_mapping, seeds_program
+from sac_jax.parallel import seed_axis, seed_devices, seed_mapping
 from sac_jax.position import Position
 from sac_jax.program_cache import cached_lower
+from sac_jax.run_dir import state_template
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts, non_finite_fields
 
 FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
@@ -191,6 +192,20 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     other processes find the compiled programs in the persistent compilation cache and the
     traced ones in `sac_jax.program_cache`."""
     directory = program_directory()
+    options = compiler_options(config.make_env())
+
+    def compiling(name, fn, in_axes, out_axes, args, result, donate):
+        """What compiles `fn` mapped over the seeds, for `args` (its traced program and
+        executable read from the program cache where it is on), having lowered it."""
+        mapped, placement = seed_mapping(fn, seeds, in_axes, out_axes)
+        if directory is None:
+            return placement, functools.partial(jax.jit(
+                mapped, donate_argnums=(0,) if donate else (), **placement).lower(
+                *args).compile, compiler_options=options)
+        return placement, cached_lower(mapped, f"{name} {config!r}", args, result, directory,
+                                       donate_first=donate, compiler_options=options,
+                                       **placement).compile
+
     # XLA compiles without Python's lock: each program compiles while the next is traced
     with concurrent.futures.ThreadPoolExecutor(4) as pool:
         with _collector_paused():
@@ -198,29 +213,27 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
             keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
             values = {name: jax.ShapeDtypeStruct((seeds,), jnp.asarray(0.0).dtype)
                       for name in swept}
-            options = compiler_options(config.make_env())
-            init = seeds_program(parts.init, seeds, out_axes=SEED_AXES).lower(
-                keys, *([values] if swept else []))
-            state = init.out_info
-            init = pool.submit(init.compile, compiler_options=options)
+            starts = [keys, *([values] if swept else [])]
+            # the state's shapes: traced once for the memory check, unless hyperparameters
+            # are traced too (then the state holds them)
+            state = (jax.eval_shape(jax.vmap(parts.init, out_axes=SEED_AXES), *starts)
+                     if swept else state_template(config, seeds))
             compiled = []
-            for name, part, axes, args in (
-                    ("advance", parts.advance, SEED_AXES, state),
-                    ("evaluate", parts.evaluate, EVALUATED_AXES, Chunk.evaluated(state))):
-                mapped, placement = seed_mapping(part, seeds, (axes,), axes)
-                if directory is None:
-                    lowered = jax.jit(mapped, donate_argnums=0, **placement).lower(args)
-                else:
-                    lowered = cached_lower(mapped, f"{name} {config!r}", [args], args,
-                                           directory, donate_first=True, **placement)
-                compiled.append(pool.submit(lowered.compile, compiler_options=options))
+            for name, part, in_axes, out_axes, args, result, donate in (
+                    ("init", parts.init, (0,) * len(starts), SEED_AXES, starts, state, False),
+                    ("advance", parts.advance, (SEED_AXES,), SEED_AXES, [state], state, True),
+                    ("evaluate", parts.evaluate, (EVALUATED_AXES,), EVALUATED_AXES,
+                     [Chunk.evaluated(state)], Chunk.evaluated(state), True)):
+                placement, compile = compiling(name, part, in_axes, out_axes, args, result,
+                                               donate)
+                compiled.append(pool.submit(compile))
                 if name == "advance":  # where the state lives: split as its arguments are
                     sharding = (placement["in_shardings"][0] if placement
                                 else jax.local_devices()[0])
         if gc.isenabled():
             gc.collect(1)  # tracing's garbage (younger generations), while XLA compiles
-        advance, evaluate = (program.result() for program in compiled)
-        return parts, init.result(), Chunk(advance, evaluate), sharding
+        init, advance, evaluate = (program.result() for program in compiled)
+        return parts, init, Chunk(advance, evaluate), sharding
 
 
 class Chunk:

@@ -1,6 +1,9 @@
 """sac_jax.program_cache: a traced program is stored once and read back by later calls without
 tracing, gives what `jax.jit` gives, donates when asked, and a damaged file is traced again; a
-program split over devices is stored and read back too."""
+program split over devices is stored and read back too. An executable compiled in a process is
+stored and loaded by later ones without lowering (in later processes too, found again after an
+edit that leaves the computation as it was); one that JAX's persistent cache supplied is not
+stored; a damaged one is compiled again and removed."""
 
 import os
 
@@ -9,16 +12,23 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sac_jax.program_cache import cached_lower, program_file
+from sac_jax.program_cache import cached_lower, executable_file, program_file
 from sac_jax.replay_buffer import Transition
 from tests.parallel_checks import run_parallel_checks
+from tests.subprocess_json import run_json
 
 
-def _step_counting_traces(calls):
+def _step_counting_traces(calls, salt=None):
+    """A step whose traces are counted in `calls`; `salt` (default: drawn afresh) makes it a
+    computation that no earlier test run left in JAX's persistent compilation cache, which
+    this test process keeps on disk (tests/conftest.py), so that this process compiles it."""
+    salt = float(np.random.default_rng().uniform(1.0, 2.0)) if salt is None else salt
+
     def step(state, scale):
         calls.append(1)  # runs only while tracing
         key, sub = jax.random.split(state["key"])
-        return {"key": key, "x": state["x"] * scale + jax.random.normal(sub, state["x"].shape),
+        return {"key": key,
+                "x": state["x"] * scale * salt + jax.random.normal(sub, state["x"].shape),
                 "t": Transition(obs=state["t"].obs + 1, action=state["t"].action,
                                 reward=state["t"].reward, next_obs=state["t"].next_obs,
                                 terminated=state["t"].terminated)}
@@ -36,7 +46,7 @@ def test_stored_once_then_read_without_tracing(tmp_path):
     step = _step_counting_traces(calls)
     state, scale = _state(), jnp.float32(2.0)
     first = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
-    assert len(calls) == 1 and len(os.listdir(tmp_path)) == 1
+    assert len(calls) == 1 and _files(tmp_path) == {".jaxexport": 1, ".xla": 1}
     again = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     assert len(calls) == 1  # read back: not traced
     expected = jax.jit(step)(state, scale)
@@ -47,6 +57,102 @@ def test_stored_once_then_read_without_tracing(tmp_path):
             if jax.dtypes.issubdtype(a.dtype, jax.dtypes.prng_key):
                 a, b = jax.random.key_data(a), jax.random.key_data(b)
             np.testing.assert_array_equal(a, b)
+
+
+def _files(directory) -> dict:
+    """How many files of each extension `directory` holds."""
+    names = os.listdir(directory)
+    return {ext: sum(n.endswith(ext) for n in names) for ext in (".jaxexport", ".xla")}
+
+
+def _refuse_lowering(monkeypatch):
+    """Makes lowering, or compiling anything lowered, fail the test."""
+    def refused(*args, **kwargs):
+        raise AssertionError("lowered or compiled")
+    monkeypatch.setattr(jax.stages.Lowered, "compile", refused)
+    monkeypatch.setattr(jax.stages.Traced, "lower", refused)
+
+
+def test_a_stored_executable_is_loaded_without_lowering_and_donates(tmp_path, monkeypatch):
+    state, scale = _state(), jnp.float32(2.0)
+    step = _step_counting_traces([])
+    expected = jax.jit(step)(state, scale)
+    cached_lower(step, "step", [state, scale], state, str(tmp_path),
+                 donate_first=True).compile()
+    _refuse_lowering(monkeypatch)
+    program = cached_lower(step, "step", [state, scale], state, str(tmp_path),
+                           donate_first=True).compile()
+    out = program(state, scale)
+    np.testing.assert_array_equal(out["x"], expected["x"])
+    np.testing.assert_array_equal(jax.random.key_data(out["key"]),
+                                  jax.random.key_data(expected["key"]))
+    assert state["x"].is_deleted() and not scale.is_deleted()
+    assert program.memory_analysis().temp_size_in_bytes >= 0
+
+
+def test_an_edit_that_leaves_the_computation_finds_its_executable(tmp_path, monkeypatch):
+    """The same computation traced from other source lines under another name (as after an
+    edit of sac_jax, whose source names the traced program's file): traced again, not
+    compiled again."""
+    salt = float(np.random.default_rng().uniform(1.0, 2.0))
+    state, scale = _state(), jnp.float32(2.0)
+    cached_lower(_step_counting_traces([], salt), "step", [state, scale], state,
+                 str(tmp_path)).compile()
+    calls = []
+
+    def edited(state, scale):  # the same computation, written elsewhere
+        return _step_counting_traces(calls, salt)(state, scale)
+
+    monkeypatch.setattr(jax.stages.Lowered, "compile", lambda *a, **k: pytest.fail("compiled"))
+    program = cached_lower(edited, "step, edited", [state, scale], state,
+                           str(tmp_path)).compile()
+    assert len(calls) == 1 and _files(tmp_path) == {".jaxexport": 2, ".xla": 1}
+    np.testing.assert_array_equal(program(state, scale)["x"],
+                                  jax.jit(edited)(state, scale)["x"])
+
+
+def test_executables_across_processes_and_one_from_jaxs_cache_is_not_stored(tmp_path):
+    """Process 1 compiles and stores the executable; process 2, with an empty program cache
+    but JAX's cache from process 1, gets JAX's executable and stores none (on a CPU its copy
+    would not run); process 3 loads process 1's without compiling. All give the same."""
+    cache, first, second = (str(tmp_path / name) for name in ("jax", "first", "second"))
+    runs = [run_json(["-m", "tests.executable_cache_run", programs, cache])
+            for programs in (first, second, first)]
+    expected = (np.sin(np.arange(4.0, dtype=np.float32)) * 3.0 + np.arange(4.0)).tolist()
+    for run in runs:
+        np.testing.assert_allclose(run.pop("x"), expected, rtol=1e-6)
+        assert run.pop("n") == 1 and run.pop("donated")
+    assert runs == [{"compiled": 1, "programs": 1, "executables": 1},
+                    {"compiled": 1, "programs": 1, "executables": 0},
+                    {"compiled": 0, "programs": 1, "executables": 1}]
+
+
+def test_a_damaged_executable_is_compiled_again_with_one_warning(tmp_path):
+    state, scale = _state(), jnp.float32(2.0)
+    step = _step_counting_traces([])
+    cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
+    (path,) = [tmp_path / name for name in os.listdir(tmp_path) if name.endswith(".xla")]
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    path.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="executable .* damaged .checksum mismatch.; compiling"):
+        program = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
+    # removed: this process's second compile came from JAX's cache, so none is stored again
+    assert not path.exists()
+    np.testing.assert_array_equal(program(state, scale)["x"], jax.jit(step)(state, scale)["x"])
+
+
+def test_the_executable_file_name_depends_on_what_the_executable_does(monkeypatch):
+    """The computation, the donated arguments, the compiler options and XLA's flags."""
+    computation = b"\0" * 32
+    name = executable_file(computation, (), None)
+    names = {name, executable_file(b"\1" * 32, (), None), executable_file(computation, (0,), None),
+             executable_file(computation, (), {"xla_backend_optimization_level": 1})}
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_max_isa=SSE4_2")
+    names.add(executable_file(computation, (), None))
+    assert len(names) == 5
+    monkeypatch.delenv("XLA_FLAGS")
+    assert executable_file(computation, (), {}) == name
 
 
 def test_the_file_name_depends_on_name_shapes_and_dtypes():
@@ -74,7 +180,7 @@ def test_a_damaged_file_is_traced_again_and_replaced(tmp_path):
     step = _step_counting_traces(calls)
     state, scale = _state(), jnp.float32(2.0)
     cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
-    (path,) = [tmp_path / name for name in os.listdir(tmp_path)]
+    (path,) = [tmp_path / name for name in os.listdir(tmp_path) if name.endswith(".jaxexport")]
     path.write_bytes(b"not a program")
     program = cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
     assert len(calls) == 2 and path.read_bytes() != b"not a program"
@@ -114,7 +220,7 @@ def test_a_file_with_flipped_bytes_is_traced_again_with_one_warning(tmp_path):
     step = _step_counting_traces(calls)
     state, scale = _state(), jnp.float32(2.0)
     cached_lower(step, "step", [state, scale], state, str(tmp_path)).compile()
-    (path,) = [tmp_path / name for name in os.listdir(tmp_path)]
+    (path,) = [tmp_path / name for name in os.listdir(tmp_path) if name.endswith(".jaxexport")]
     data = bytearray(path.read_bytes())
     middle = len(data) // 2
     data[middle:middle + 8] = bytes(b ^ 0xFF for b in data[middle:middle + 8])
