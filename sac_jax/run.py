@@ -189,14 +189,14 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     traced, one value per seed: `init(keys, {name: (seeds,)})`), the seeds split into equal
     groups over the local devices (`sac_jax.parallel.seed_devices`). Kept per (config, seeds,
     swept), so later runs of the same shapes in this process neither trace nor compile again;
-    other processes find the compiled programs in the persistent compilation cache and the
-    traced ones in `sac_jax.program_cache`."""
+    other processes find the traced programs and their executables in `sac_jax.program_cache`
+    (else the executables in the persistent compilation cache)."""
     directory = program_directory()
     options = compiler_options(config.make_env())
 
     def compiling(name, fn, in_axes, out_axes, args, result, donate):
-        """What compiles `fn` mapped over the seeds, for `args` (its traced program and
-        executable read from the program cache where it is on), having lowered it."""
+        """(`jax.jit`'s placement, a call that compiles `fn` mapped over the seeds for `args`):
+        through the program cache where it is on, else lowered now."""
         mapped, placement = seed_mapping(fn, seeds, in_axes, out_axes)
         if directory is None:
             return placement, functools.partial(jax.jit(
