@@ -16,8 +16,8 @@ import subprocess
 import sys
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
-PACKAGES = ("jax", "jaxlib", "flax", "optax", "mujoco", "mujoco-mjx", "brax", "distrax", "torch",
-            "gymnasium", "playground", "warp-lang")
+PACKAGES = ("jax", "jaxlib", "ml_dtypes", "flax", "optax", "mujoco", "mujoco-mjx", "brax",
+            "distrax", "torch", "gymnasium", "playground", "warp-lang")
 
 
 def _cpu_model() -> str:

@@ -88,6 +88,7 @@ def main() -> None:
         del run["to_result_s"]
     print(json.dumps(dict(rejax=importlib.metadata.version("rejax"),
                           gymnax=importlib.metadata.version("gymnax"),
+                          ml_dtypes=importlib.metadata.version("ml_dtypes"),
                           jax=jax.__version__, device=jax.devices()[0].device_kind,
                           config=CONFIG, eval_freq=args.eval_freq,
                           cache=args.cache_dir is not None, runs=runs)))
