@@ -52,8 +52,8 @@ from typing import Annotated, Dict, List, Literal, Optional, Sequence, Tuple  # 
 import tyro  # noqa: E402
 
 import sac_jax  # noqa: E402
-from sac_jax import (hyperparams, memory, parallel, run_checkpoint, run_dir,  # noqa: E402
-                     tracking)
+from sac_jax import (hyperparams, memory, parallel, plots, run_checkpoint,  # noqa: E402
+                     run_dir, tracking)
 from sac_jax.cli import (EXIT_CODES, PresetName, RunFailed, StopRequest,  # noqa: E402
                          after_failure, check_resume_flags, device_split, fail,
                          parse_with_preset, positive, prng_seed, run_main, train_in_dir)
@@ -343,14 +343,11 @@ def _write_plot(out: str, sweep: dict, rows: List[dict], programs: List[Program]
     """sweep.png: per swept field, each run's delivered return (dots) and the mean over seeds
     and the other fields' values (line) against the field's values; then each setting's mean
     evaluation return of its last actor against environment steps."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     names = list(sweep["grid"])
-    fig, axes = plt.subplots(1, len(names) + 1, figsize=(4.2 * (len(names) + 1), 3.6), dpi=100,
-                             squeeze=False)
+    fig = plots.figure(figsize=(4.2 * (len(names) + 1), 3.6), dpi=100)
+    axes = fig.subplots(1, len(names) + 1, squeeze=False)
     for ax, name in zip(axes[0], names):
         values = sorted(set(sweep["grid"][name]))
         x = [r[name] for r in rows]
@@ -381,7 +378,6 @@ def _write_plot(out: str, sweep: dict, rows: List[dict], programs: List[Program]
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", bbox_inches="tight")
-    plt.close(fig)
     run_dir.write_file(os.path.join(out, "sweep.png"), buffer.getvalue())
 
 
