@@ -20,15 +20,30 @@ PACKAGES = ("jax", "jaxlib", "ml_dtypes", "flax", "optax", "mujoco", "mujoco-mjx
             "distrax", "torch", "gymnasium", "playground", "warp-lang")
 
 
-def _cpu_model() -> str:
+def _cpuinfo() -> dict:
+    """The first processor's fields in /proc/cpuinfo ({} where there is none)."""
+    fields = {}
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                if not line.strip():
+                    break
+                name, _, value = line.partition(":")
+                fields[name.strip()] = value.strip()
     except OSError:
         pass
-    return platform.processor() or platform.machine()
+    return fields
+
+
+def _cpu() -> dict:
+    """The CPU: its model name, its family/model/stepping (VMs often name every Xeon alike), and
+    which of the vector extensions that set XLA's float32 rounding it has (as .ci/run prints)."""
+    info = _cpuinfo()
+    flags = set(info.get("flags", "").split())
+    return {"cpu": info.get("model name") or platform.processor() or platform.machine(),
+            "cpu_id": " ".join(f"{k} {info[k]}" for k in ("cpu family", "model", "stepping")
+                               if k in info),
+            "vector_extensions": [e for e in ("avx512f", "avx2", "fma", "sse4_2") if e in flags]}
 
 
 def machine_kind(all_devices: bool = False) -> str:
@@ -84,7 +99,7 @@ def provenance() -> dict:
     if os.environ.get("SAC_JAX_BENCHMARK_VIA"):  # benchmarks/gpu.sh's own command line
         source["via"] = os.environ["SAC_JAX_BENCHMARK_VIA"]
     return {**source,
-            "machine": {"cpu": _cpu_model(), "cores": os.cpu_count(),
+            "machine": {**_cpu(), "cores": os.cpu_count(),
                         "devices": [str(d) for d in jax.devices()],
                         "device_kind": jax.devices()[0].device_kind,
                         "xla_flags": os.environ.get("XLA_FLAGS", "")},
