@@ -36,13 +36,15 @@ def _cpuinfo() -> dict:
 
 
 def _cpu() -> dict:
-    """The CPU: its model name, its family/model/stepping (VMs often name every Xeon alike), and
-    which of the vector extensions that set XLA's float32 rounding it has (as .ci/run prints)."""
+    """The CPU: its model name, its family/model/stepping and clock (VMs often name every Xeon
+    alike), and which of the vector extensions that set XLA's float32 rounding it has (as
+    .ci/run prints)."""
     info = _cpuinfo()
     flags = set(info.get("flags", "").split())
     return {"cpu": info.get("model name") or platform.processor() or platform.machine(),
             "cpu_id": " ".join(f"{k} {info[k]}" for k in ("cpu family", "model", "stepping")
                                if k in info),
+            "mhz": round(float(info["cpu MHz"])) if "cpu MHz" in info else None,
             "vector_extensions": [e for e in ("avx512f", "avx2", "fma", "sse4_2") if e in flags]}
 
 

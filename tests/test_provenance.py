@@ -23,11 +23,12 @@ def test_the_command_quotes_each_argument_and_the_commit_is_recorded(monkeypatch
 
 def test_the_machine_names_the_cpu_beyond_its_model_name(monkeypatch):
     fields = {"model name": "Intel(R) Xeon(R) Processor", "cpu family": "6", "model": "167",
-              "stepping": "1", "flags": "fpu sse4_2 fma avx2 avx512f avx512bw"}
+              "stepping": "1", "cpu MHz": "2599.998", "flags": "fpu sse4_2 fma avx2 avx512f avx512bw"}
     monkeypatch.setattr(provenance, "_cpuinfo", lambda: fields)
     machine = provenance.provenance()["machine"]
     assert machine["cpu"] == "Intel(R) Xeon(R) Processor"
     assert machine["cpu_id"] == "cpu family 6 model 167 stepping 1"
+    assert machine["mhz"] == 2600
     assert machine["vector_extensions"] == ["avx512f", "avx2", "fma", "sse4_2"]
     fields["flags"] = "fpu sse4_2"
     assert provenance.provenance()["machine"]["vector_extensions"] == ["sse4_2"]
