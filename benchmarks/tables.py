@@ -39,10 +39,12 @@ BLOCK = re.compile(r"(<!-- generated: (\S+) -->\n)(.*?)(<!-- end generated -->)"
 
 PLAYGROUND_FAMILY = ("CartpoleBalance", "CartpoleSwingup", "PendulumSwingup", "AcrobotSwingup")
 GPUS = ("h100", "h200")  # the kinds (benchmarks/provenance.py's machine_kind) of one GPU
-CPUS_DELIVERED = (("delivered", "delivered-cold"), ("delivered-xeon", "delivered-cold-xeon"))
-"""The README's command on each CPU model of the project's 2-core machines, the AMD EPYC, then
-the 2.1 GHz Intel Xeon: (warm runs, `python -m benchmarks.delivered --name WARM`; cold starts,
-`python -m benchmarks.delivered --seeds 0 --many 0 --cold 5 --name COLD`)."""
+CPUS_DELIVERED = (("delivered", "delivered-cold"), ("delivered-xeon", "delivered-cold-xeon"),
+                  ("delivered-xeon26", "delivered-cold-xeon26"))
+"""The README's command on each CPU model of the project's 2-core machines, the AMD EPYC, the
+2.1 GHz Intel Xeon (whose files of 2026-11-29 record no clock), then a 2.6 GHz Intel Xeon:
+(warm runs, `python -m benchmarks.delivered --name WARM`; cold starts, `python -m
+benchmarks.delivered --seeds 0 --many 0 --cold 5 --name COLD`)."""
 
 
 def _cpus_delivered() -> List[Tuple[str, str]]:
@@ -84,9 +86,12 @@ def _machine(data: dict) -> str:
 
 
 def _cpu(data: dict) -> str:
-    """The CPU model of a results file, without trademark signs: "Intel Xeon", "AMD EPYC"."""
-    name = data["provenance"]["machine"]["cpu"].replace("(R)", "").replace(" Processor", "")
-    return " ".join(name.split())
+    """The CPU model of a results file, without trademark signs, and its clock where recorded:
+    "Intel Xeon 2.6 GHz", "AMD EPYC"."""
+    machine = data["provenance"]["machine"]
+    name = machine["cpu"].replace("(R)", "").replace(" Processor", "")
+    clock = f" {machine['mhz'] / 1000:.1f} GHz" if machine.get("mhz") else ""
+    return " ".join(name.split()) + clock
 
 
 def _where(data: dict) -> str:
