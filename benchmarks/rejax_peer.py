@@ -40,7 +40,8 @@ evaluation (mean over its seeds), ours the delivered actor's confirmed return (m
     python -m benchmarks.rejax_peer --rejax-python /work/rejax-venv/bin/python --seeds 1 16 \
         --rounds 3
 
-Writes benchmarks/results/rejax_peer-KIND.json (command, machine, versions, date).
+Writes benchmarks/results/rejax_peer-KIND.json (`--name` to choose; command, machine, versions,
+date).
 """
 
 from __future__ import annotations
@@ -125,6 +126,8 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=1,
                         help="alternated end-to-end rounds (a rejax process, our warm script) "
                              "per seed count; the warm ratio is of their medians")
+    parser.add_argument("--name", default=None,
+                        help="results file name (default rejax_peer-KIND: rejax_peer-cpu)")
     args = parser.parse_args()
     if args.rounds < 1:
         parser.error(f"--rounds must be at least 1, got {args.rounds}")
@@ -189,7 +192,7 @@ def main() -> None:
               f"{args.rounds} round(s) but cold)",
               flush=True)
     parts = make_train_parts(CONFIG)  # the script dispatches num_chunks programs
-    write_result(result_name("rejax_peer"), dict(
+    write_result(args.name or result_name("rejax_peer"), dict(
         rejax_side=rejax, rows=rows, our_flags=FLAGS, num_iterations=parts.num_iterations,
         num_chunks=parts.num_chunks), source)
 
