@@ -768,7 +768,8 @@ def rejax() -> str:
         return out
 
     return _sources([(_find("rejax_peer-cpu"), "python -m benchmarks.rejax_peer --rejax-python "
-                      "PATH"), (_gpu("rejax_peer"), "python -m benchmarks.rejax_peer on a GPU")],
+                      "PATH")] + [(n, None) for n in REJAX_OTHER_CPUS if _find(n)]
+                    + [(_gpu("rejax_peer"), "python -m benchmarks.rejax_peer on a GPU")],
                     ["machine", "seeds", "rejax: compile + run", "our program: compile + run",
                      "our script: run (/ program)",
                      "process start to result: rejax / rejax, its cache warm / ours cold / "
@@ -777,13 +778,36 @@ def rejax() -> str:
                     rows)
 
 
+REJAX_OTHER_CPUS = ("rejax_peer-xeon26",)
+"""rejax_peer's results on CPUs beside the AMD EPYC's `rejax_peer-cpu` (`--name`)."""
+
+
+def _rejax_files() -> List[str]:
+    """rejax_peer's results files that exist: the AMD EPYC's, other CPUs', then a GPU's."""
+    return [n for n in (_find("rejax_peer-cpu"), *(_find(n) for n in REJAX_OTHER_CPUS),
+                        _gpu("rejax_peer")) if n]
+
+
+def _rejax_where(name: str) -> str:
+    """A target's machine word: "CPU" (the AMD EPYC), "CPU Intel Xeon 2.6 GHz", or "GPU"."""
+    if name.startswith("rejax_peer-h"):
+        return "GPU"
+    cpu = _cpu(_load(name))
+    return "CPU" if cpu.startswith("AMD EPYC") else f"CPU {cpu}"
+
+
+def _cpu_and_gpu(names: List[str]) -> bool:
+    """Whether `names` hold a CPU's figures and a GPU's, as the rejax targets need."""
+    return len({_rejax_where(n) == "GPU" for n in names}) == 2
+
+
 def _target_rejax(key: str, limit: float, above: bool):
-    names = [n for n in (_find("rejax_peer-cpu"), _gpu("rejax_peer")) if n]
+    names = _rejax_files()
     if not names:
         return None
     parts, met = [], True
     for name in names:
-        where = "CPU" if name.endswith("-cpu") else "GPU"
+        where = _rejax_where(name)
         for r in _load(name)["result"]["rows"]:
             if key not in r:  # a file from before the figure was measured
                 parts.append(f"{where} {r['seeds']} seed(s) not measured yet")
@@ -797,19 +821,19 @@ def _target_rejax(key: str, limit: float, above: bool):
             parts.append(f"{where} {r['seeds']} seed(s) {r[key]:.2f}x")
             if met is not None:
                 met = met and (r[key] >= limit if above else r[key] <= limit)
-    return names, [("; ".join(parts), met if len(names) == 2 or met is False else None)]
+    return names, [("; ".join(parts), met if _cpu_and_gpu(names) or met is False else None)]
 
 
 def _target_evaluation_share():
-    names = [n for n in (_find("rejax_peer-cpu"), _gpu("rejax_peer")) if n]
-    rows = [(name, r) for name in names for r in _load(name)["result"]["rows"]
+    rows = [(name, r) for name in _rejax_files() for r in _load(name)["result"]["rows"]
             if "evaluation_share" in r]
     if not rows:
         return None
     met = all(r["evaluation_share"] <= 0.10 for _, r in rows)
-    return names, [("; ".join(f"{'CPU' if name.endswith('-cpu') else 'GPU'} {r['seeds']} "
-                              f"seed(s) {100 * r['evaluation_share']:.1f} %" for name, r in rows),
-                    met if len({name for name, _ in rows}) == 2 or not met else None)]
+    names = list(dict.fromkeys(name for name, _ in rows))
+    return names, [("; ".join(f"{_rejax_where(name)} {r['seeds']} seed(s) "
+                              f"{100 * r['evaluation_share']:.1f} %" for name, r in rows),
+                    met if _cpu_and_gpu(names) or not met else None)]
 
 
 def _target_cold_compile():
