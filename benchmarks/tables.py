@@ -45,6 +45,8 @@ CPUS_DELIVERED = (("delivered", "delivered-cold"), ("delivered-xeon", "delivered
 2.1 GHz Intel Xeon (whose files of 2026-11-29 record no clock), then a 2.6 GHz Intel Xeon:
 (warm runs, `python -m benchmarks.delivered --name WARM`; cold starts, `python -m
 benchmarks.delivered --seeds 0 --many 0 --cold 5 --name COLD`)."""
+REJAX_OTHER_CPUS = ("rejax_peer-xeon26",)
+"""rejax_peer's results on CPUs beside the AMD EPYC's `rejax_peer-cpu` (`--name`)."""
 
 
 def _cpus_delivered() -> List[Tuple[str, str]]:
@@ -778,10 +780,6 @@ def rejax() -> str:
                     rows)
 
 
-REJAX_OTHER_CPUS = ("rejax_peer-xeon26",)
-"""rejax_peer's results on CPUs beside the AMD EPYC's `rejax_peer-cpu` (`--name`)."""
-
-
 def _rejax_files() -> List[str]:
     """rejax_peer's results files that exist: the AMD EPYC's, other CPUs', then a GPU's."""
     return [n for n in (_find("rejax_peer-cpu"), *(_find(n) for n in REJAX_OTHER_CPUS),
@@ -790,7 +788,7 @@ def _rejax_files() -> List[str]:
 
 def _rejax_where(name: str) -> str:
     """A target's machine word: "CPU" (the AMD EPYC), "CPU Intel Xeon 2.6 GHz", or "GPU"."""
-    if name.startswith("rejax_peer-h"):
+    if name in {f"rejax_peer-{kind}" for kind in GPUS}:
         return "GPU"
     cpu = _cpu(_load(name))
     return "CPU" if cpu.startswith("AMD EPYC") else f"CPU {cpu}"

@@ -23,7 +23,8 @@ def test_the_command_quotes_each_argument_and_the_commit_is_recorded(monkeypatch
 
 def test_the_machine_names_the_cpu_beyond_its_model_name(monkeypatch):
     fields = {"model name": "Intel(R) Xeon(R) Processor", "cpu family": "6", "model": "167",
-              "stepping": "1", "cpu MHz": "2599.998", "flags": "fpu sse4_2 fma avx2 avx512f avx512bw"}
+              "stepping": "1", "cpu MHz": "2599.998",
+              "flags": "fpu sse4_2 fma avx2 avx512f avx512bw"}
     monkeypatch.setattr(provenance, "_cpuinfo", lambda: fields)
     machine = provenance.provenance()["machine"]
     assert machine["cpu"] == "Intel(R) Xeon(R) Processor"
