@@ -382,8 +382,10 @@ def _write_plot(out: str, sweep: dict, rows: List[dict], programs: List[Program]
 
 
 def main(argv=None) -> int:
-    # a CPU's seeds split over its cores; first, before JAX starts (here or from `sac-jax`)
+    # first, before JAX starts (here or from `sac-jax`): a CPU's seeds split over its cores,
+    # and XLA's CPU kernels in sequence (`compilation_cache.sequential_cpu_scheduler`)
     parallel.cpu_device_per_core()
+    sac_jax.compilation_cache.sequential_cpu_scheduler()
     try:
         args = parse_args(argv)
         if args.resume:

@@ -3,9 +3,13 @@ tracing, gives what `jax.jit` gives, donates when asked, and a damaged file is t
 program split over devices is stored and read back too. An executable compiled in a process is
 stored and loaded by later ones without lowering (in later processes too, found again after an
 edit that leaves the computation as it was); one that JAX's persistent cache supplied is not
-stored; a damaged one is compiled again and removed."""
+stored; a damaged one is compiled again and removed. The XLA flag the scripts set before JAX
+starts changes the kernels' order, and only then."""
 
+import json
 import os
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -15,7 +19,7 @@ import pytest
 from sac_jax.program_cache import cached_lower, executable_file, program_file
 from sac_jax.replay_buffer import Transition
 from tests.parallel_checks import run_parallel_checks
-from tests.subprocess_json import run_json
+from tests.subprocess_json import ROOT, run_json
 
 
 def _step_counting_traces(calls, salt=None):
@@ -259,3 +263,37 @@ def test_every_compiler_option_is_one_this_xla_knows():
     jax.jit(lambda x: x + 1).lower(1.0).compile(compiler_options=cc.MUJOCO_CPU_COMPILER_OPTIONS)
     with pytest.raises(Exception, match="xla_cpu_no_such_option"):
         jax.jit(lambda x: x + 2).lower(1.0).compile(compiler_options={"xla_cpu_no_such_option": 1})
+
+
+SCHEDULE = """
+import hashlib, json, os, sys
+import jax, jax.numpy as jnp
+from sac_jax.compilation_cache import sequential_cpu_scheduler
+if sys.argv[1] == "late":
+    jax.devices()
+sequential_cpu_scheduler()
+ws = [jnp.full((8, 8), i) for i in range(4)]  # four independent branches to order
+text = jax.jit(lambda x: sum(jnp.tanh(x @ w) @ w for w in ws)).lower(ws[1]).compile().as_text()
+print(json.dumps([os.environ["XLA_FLAGS"], hashlib.sha256(text.encode()).hexdigest()]))
+"""
+
+
+def test_the_sequential_cpu_scheduler_is_set_before_jax_starts_and_orders_kernels_anew():
+    """Before JAX starts, the flag joins $XLA_FLAGS and XLA orders the kernels otherwise (the
+    compiled program's schedule changes); after, or where the flag is set already, nothing
+    changes."""
+    from sac_jax.compilation_cache import SEQUENTIAL_CPU_SCHEDULER
+
+    def run(when, flags):
+        env = dict(os.environ, XLA_FLAGS=flags, JAX_PLATFORMS="cpu")
+        proc = subprocess.run([sys.executable, "-c", SCHEDULE, when], env=env, text=True,
+                              capture_output=True, cwd=ROOT)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        return json.loads(proc.stdout.splitlines()[-1])
+
+    isa, concurrent = "--xla_cpu_max_isa=AVX2", SEQUENTIAL_CPU_SCHEDULER.replace("false", "true")
+    early, late = run("early", isa), run("late", isa)
+    kept = run("early", f"{isa} {concurrent}")
+    assert early[0] == f"{isa} {SEQUENTIAL_CPU_SCHEDULER}"
+    assert late[0] == isa and kept[0] == f"{isa} {concurrent}"
+    assert early[1] != late[1] == kept[1]
