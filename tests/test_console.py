@@ -76,16 +76,21 @@ def _python(code: str, env=None) -> str:
 @pytest.mark.parametrize("command", ["train", "sweep"])
 def test_the_launcher_gives_the_training_scripts_a_cpu_device_per_core(command):
     """As when run as files: `sac-jax train --seeds 16` on a CPU splits its seeds over the
-    cores (the launcher had left one device: half the speed, and other compiled programs)."""
-    code = ("import atexit, sys, jax; from scripts import console; "
-            "atexit.register(lambda: print('devices', len(jax.devices()))); "
+    cores (the launcher had left one device: half the speed, and other compiled programs), and
+    XLA's flags are the scripts' (`compilation_cache.sequential_cpu_scheduler`)."""
+    from sac_jax.compilation_cache import SEQUENTIAL_CPU_SCHEDULER
+
+    code = ("import atexit, os, sys, jax; from scripts import console; "
+            "atexit.register(lambda: print('devices', len(jax.devices()), "
+            "os.environ.get('XLA_FLAGS'))); "
             f"sys.argv = ['sac-jax', '{command}', '--seeds', '0']; console.main()")
     env = dict(os.environ, JAX_NUM_CPU_DEVICES="-1", JAX_PLATFORMS="cpu")
     env.pop("XLA_FLAGS", None)
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=300, env=env)
     assert done.returncode == 2, done.stderr  # --seeds 0 refused, after the devices were set
-    assert done.stdout.strip().splitlines()[-1] == f"devices {len(os.sched_getaffinity(0))}"
+    assert done.stdout.strip().splitlines()[-1] == (f"devices {len(os.sched_getaffinity(0))} "
+                                                    f"{SEQUENTIAL_CPU_SCHEDULER}")
 
 
 def test_the_launcher_imports_nothing_heavy():
