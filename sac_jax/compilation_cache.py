@@ -80,7 +80,10 @@ def sequential_cpu_scheduler() -> None:
     than running them at once saves. rejax's Pendulum-v1 configuration (64 wide, batch 256,
     10k steps, 1 seed, `jax.jit(make_train(config))`) trained in 4.90-4.99 s against
     5.44-5.53 s, with the same returns bit for bit; `fast` in 10.5-10.8 s against 10.7-10.8 s,
-    compiling as long (2 cores of a 2.6 GHz Intel Xeon, alternated processes, 2 each).
+    compiling as long (2 cores of a 2.6 GHz Intel Xeon, alternated processes, 2 each). On 2
+    cores of a Zen 4 AMD EPYC it changed nothing beyond noise: rejax's configuration trained in
+    a median 6.05 s (5.71-6.43) with it against 5.95 s (5.79-6.38) without (3 alternated
+    processes each, 3 calls per process, 2026-12-05).
     XLA reads this option from its flags, not from a program's compiler options (given to
     `compile` it changed nothing), so it takes effect only before JAX starts its backends (the
     first array or device query); after that this does nothing, and $XLA_FLAGS stays as it
