@@ -27,7 +27,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from sac_jax import wandb_records
-from sac_jax.background import BackgroundWrites
+from sac_jax.background import SYNTAX_TREE_IMPORTS, BackgroundWrites
 from sac_jax.metric_writers import Point, point_scalars
 from sac_jax.messages import first_line
 from sac_jax.run_dir import RunDirError, write_json
@@ -89,14 +89,15 @@ class WandbRun(BackgroundWrites):
         self.submit(self._start, run_dir, dict(tracked), dict(config), list(history))
 
     def _start(self, run_dir: str, tracked: dict, config: dict, history: List[Point]) -> None:
-        import wandb
-
         directory = os.environ.get("WANDB_DIR") or run_dir
-        self._run = wandb.init(
-            id=tracked["id"], resume="allow", project=tracked["project"],
-            entity=tracked["entity"], name=tracked["name"] or os.path.basename(
-                os.path.abspath(run_dir)), mode=tracked["mode"], config=config, dir=directory,
-            settings=wandb.Settings(silent=True, console="off"))
+        with SYNTAX_TREE_IMPORTS:  # both import modules that parse source as they load
+            import wandb
+
+            self._run = wandb.init(
+                id=tracked["id"], resume="allow", project=tracked["project"],
+                entity=tracked["entity"], name=tracked["name"] or os.path.basename(
+                    os.path.abspath(run_dir)), mode=tracked["mode"], config=config,
+                dir=directory, settings=wandb.Settings(silent=True, console="off"))
         held = earlier_offline_steps(directory, tracked["id"], self._run.dir) if (
             self._run.offline) else []
         self._next_step = max([self._run.step] + [s + 1 for s in held])

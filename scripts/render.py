@@ -71,7 +71,7 @@ import sac_jax  # noqa: E402
 from envs.mjx_env import MjxEnv  # noqa: E402
 from envs.pendulum import PendulumData  # noqa: E402
 from envs.task_adapter import TaskAdapter  # noqa: E402
-from sac_jax import run_dir  # noqa: E402
+from sac_jax import plots, run_dir  # noqa: E402
 from sac_jax.messages import first_line  # noqa: E402
 from sac_jax.cli import (MissingDependency, fail, parse, positive, prng_seed,  # noqa: E402
                          run_main)
@@ -206,12 +206,9 @@ def mujoco_frames(renderer, poses: np.ndarray) -> np.ndarray:
 def pendulum_frames(thetas: np.ndarray, width: int, height: int, dt: float) -> np.ndarray:
     """(T, height, width, 3) uint8 matplotlib drawings of the pendulum at angles `thetas`
     (T,): the rod from the pivot to (-sin θ, cos θ), θ = 0 upright, as Gymnasium draws it."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     dpi = 100
-    figure = Figure(figsize=(width / dpi, height / dpi), dpi=dpi)
-    canvas = FigureCanvasAgg(figure)
+    figure = plots.figure(figsize=(width / dpi, height / dpi), dpi=dpi)
+    canvas = figure.canvas
     axes = figure.add_axes((0, 0, 1, 1))
     axes.set(xlim=(-1.3, 1.3), ylim=(-1.3, 1.3), aspect="equal")
     axes.axis("off")

@@ -26,7 +26,7 @@ from scripts import train as train_script
 from tests.killed_run import tensorboard_steps, wandb_steps
 from tests.saved_runs import SMALL_RUN as RUN
 from tests.signals import interrupted_main
-from tests.subprocess_json import ROOT
+from tests.subprocess_json import ROOT, run_json
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -254,6 +254,21 @@ def offline_wandb(tmp_path, monkeypatch):
     monkeypatch.setenv("WANDB_DIR", str(tmp_path / "wandb-dir"))
     os.makedirs(tmp_path / "wandb-dir")
     return str(tmp_path / "wandb-dir")
+
+
+def test_threads_never_build_syntax_trees_at_once(tmp_path, offline_wandb):
+    """W&B's start and matplotlib's import, on three threads at once, parse Python source (wandb's
+    pydantic models, matplotlib's rc values), which CPython 3.11 cannot do on two threads at once
+    (SystemError "AST constructor recursion depth mismatch"): W&B's thread and the one that
+    imported matplotlib parse, each call holding `background.SYNTAX_TREE_IMPORTS`, and none
+    begins while another thread is inside one."""
+    pytest.importorskip("wandb")
+    seen = run_json(["-m", "tests.concurrent_imports", str(tmp_path)])
+    threads = set(seen["calls"])
+    assert any(name.startswith("ThreadPoolExecutor") for name in threads), seen  # W&B's
+    assert threads & {"MainThread", "plots.prepare"}, seen  # whichever imported matplotlib
+    assert sum(seen["unguarded"].values()) == 0, seen
+    assert sum(seen["overlapping"].values()) == 0, seen
 
 
 def test_each_point_is_logged_once_after_kills_and_resumes(runs, tmp_path, offline_wandb):
