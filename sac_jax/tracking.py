@@ -26,8 +26,8 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from sac_jax import wandb_records
-from sac_jax.background import SYNTAX_TREE_IMPORTS, BackgroundWrites
+from sac_jax import background, wandb_records
+from sac_jax.background import BackgroundWrites
 from sac_jax.metric_writers import Point, point_scalars
 from sac_jax.messages import first_line
 from sac_jax.run_dir import RunDirError, write_json
@@ -90,7 +90,7 @@ class WandbRun(BackgroundWrites):
 
     def _start(self, run_dir: str, tracked: dict, config: dict, history: List[Point]) -> None:
         directory = os.environ.get("WANDB_DIR") or run_dir
-        with SYNTAX_TREE_IMPORTS:  # both import modules that parse source as they load
+        with background.SYNTAX_TREE_IMPORTS:  # both import modules that parse source as they load
             import wandb
 
             self._run = wandb.init(

@@ -15,7 +15,7 @@ import json
 import sys
 import threading
 
-from sac_jax import background
+from sac_jax import background, plots, tracking
 
 
 class OwnedLock:
@@ -35,7 +35,6 @@ class OwnedLock:
 
 def main(run_dir: str) -> None:
     lock = background.SYNTAX_TREE_IMPORTS = OwnedLock()
-    from sac_jax import plots, tracking  # noqa: E402 (after the lock is in place)
 
     sys.setswitchinterval(1e-6)  # threads take turns as often as Python lets them
     parse, inside = ast.parse, set()
