@@ -194,6 +194,18 @@ def test_a_finished_run_directory_holds_every_output(runs):
     assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
 
 
+def test_training_switches_threads_more_often_then_restores_the_interval(tmp_path, monkeypatch):
+    from sac_jax import cli
+
+    seen, line = [], cli.progress_line
+    monkeypatch.setattr(cli, "progress_line",
+                        lambda *args: seen.append(sys.getswitchinterval()) or line(*args))
+    before = sys.getswitchinterval()
+    assert train_script.main(RUN + ["--out", str(tmp_path / "run")]) == 0
+    assert len(seen) == 3 and seen == pytest.approx([cli.TRAINING_SWITCH_INTERVAL_S] * 3)
+    assert sys.getswitchinterval() == before != pytest.approx(cli.TRAINING_SWITCH_INTERVAL_S)
+
+
 def tensorboard_scalars(event_dir):
     """[(tag, step, value)] of every scalar in the TensorBoard event files of `event_dir`, in
     file-name (creation) order and then as written, duplicates kept: read with TensorBoard's
