@@ -271,6 +271,8 @@ def _read_executable(path: str, arguments: int, results: int
             os.remove(path)
         return None
     header, serialized = payload.split(b"\n", 1)
+    if b"lapack_" in serialized:  # LAPACK's custom calls (on a CPU, e.g. MJX's Cholesky)
+        _set_up_lapack()
     try:
         by_id = {d.id: d for d in jax.local_devices()}
         devices = [by_id[int(i)] for i in header.split(b",")]
@@ -279,6 +281,17 @@ def _read_executable(path: str, arguments: int, results: int
             jax.tree_util.tree_structure(list(range(results))), execution_devices=devices)
     except Exception:  # noqa: BLE001 (e.g. devices this process lacks): compile again
         return None
+
+
+def _set_up_lapack() -> None:
+    """Gives jaxlib's LAPACK custom calls their kernels (scipy's), as lowering a program that
+    makes such a call does first; an executable loaded without lowering that calls one
+    otherwise ends the process with a segmentation fault (jaxlib 0.10.2; a warm run of the
+    CartpoleBalance preset, whose MJX solver factors with `lapack_spotrf_ffi`). Costs the
+    import of scipy.linalg, once, where a program makes such a call."""
+    from jax._src.lax import linalg
+
+    linalg.initialize_lapack()
 
 
 def _write_executable(path: str, compiled: jax.stages.Compiled) -> None:

@@ -118,13 +118,15 @@ def test_an_edit_that_leaves_the_computation_finds_its_executable(tmp_path, monk
 def test_executables_across_processes_and_one_from_jaxs_cache_is_not_stored(tmp_path):
     """Process 1 compiles and stores the executable; process 2, with an empty program cache
     but JAX's cache from process 1, gets JAX's executable and stores none (on a CPU its copy
-    would not run); process 3 loads process 1's without compiling. All give the same."""
+    would not run); process 3 loads process 1's without compiling (nor lowering, which on a
+    CPU sets up the LAPACK kernels its Cholesky calls: loading does). All give the same."""
     cache, first, second = (str(tmp_path / name) for name in ("jax", "first", "second"))
     runs = [run_json(["-m", "tests.executable_cache_run", programs, cache])
             for programs in (first, second, first)]
     expected = (np.sin(np.arange(4.0, dtype=np.float32)) * 3.0 + np.arange(4.0)).tolist()
     for run in runs:
         np.testing.assert_allclose(run.pop("x"), expected, rtol=1e-6)
+        np.testing.assert_allclose(run.pop("c"), np.sqrt(np.arange(4.0) + 1.0), rtol=1e-6)
         assert run.pop("n") == 1 and run.pop("donated")
     assert runs == [{"compiled": 1, "programs": 1, "executables": 1},
                     {"compiled": 1, "programs": 1, "executables": 0},
