@@ -30,7 +30,8 @@ from typing import Dict, List, Optional, Tuple
 
 import jax
 
-from sac_jax import hyperparams
+from envs import _lean_import
+from sac_jax import compilation_cache, hyperparams, program_cache
 from sac_jax.config import SACConfig
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
 from sac_jax.whole_file import write_file
@@ -142,17 +143,24 @@ def read_config(run_dir: str) -> Tuple[SACConfig, RunInfo]:
 def state_template(config: SACConfig, seeds: int, settings: Optional[Dict[str, list]] = None
                    ) -> RunnerState:
     """Shapes and dtypes of the vmapped training state of `seeds` seeds (of each of the swept
-    `settings`' values, if any; nothing is computed). Kept per arguments: tracing the state's
-    constructor takes 1.2 s for a Playground task on 2 CPU cores, and a run needs the shapes
-    before it compiles (`sac_jax.memory.check`) and again after."""
+    `settings`' values, if any; nothing is computed). Kept per arguments, and on disk beside
+    the traced programs while the compilation cache is on (`program_cache.cached_shapes`):
+    tracing the state's constructor takes 1.2 s for a Playground task on 2 CPU cores, and a
+    run needs the shapes before it compiles (`sac_jax.memory.check`) and again after."""
     return _state_template(config, seeds, None if settings is None else
                            tuple((name, tuple(values)) for name, values in settings.items()))
 
 
 @functools.lru_cache(maxsize=4)
 def _state_template(config: SACConfig, seeds: int, settings) -> RunnerState:
-    configs, values = hyperparams.sweep(
-        config, None if settings is None else {name: list(v) for name, v in settings}, seeds)
-    init = jax.vmap(make_train_parts(configs[0]).init, out_axes=SEED_AXES)
-    keys = jax.random.split(jax.random.key(0), seeds * len(configs))
-    return jax.eval_shape(init, keys, *([values] if values else []))
+    def trace():
+        configs, values = hyperparams.sweep(
+            config, None if settings is None else {name: list(v) for name, v in settings}, seeds)
+        init = jax.vmap(make_train_parts(configs[0]).init, out_axes=SEED_AXES)
+        keys = jax.random.split(jax.random.key(0), seeds * len(configs))
+        return jax.eval_shape(init, keys, *([values] if values else []))
+
+    # the state's classes (MJX's, Playground's) imported as the environments import them
+    return program_cache.cached_shapes(f"state {config!r} {seeds} {settings!r}", trace,
+                                       compilation_cache.program_directory(),
+                                       unpickling=lambda: _lean_import.mjx_import("torch"))

@@ -388,6 +388,11 @@ def main(argv=None) -> int:
     sac_jax.compilation_cache.sequential_cpu_scheduler()
     try:
         args = parse_args(argv)
+        # before the memory checks, whose state shapes the cache keeps (run_dir.state_template)
+        if args.cache:
+            sac_jax.enable_compilation_cache(args.cache_dir)
+        else:
+            sac_jax.compilation_cache.disable_compilation_cache()
         if args.resume:
             out, sweep = args.resume, _read_sweep(args.resume)
             points, programs = plan(sweep["config"], sweep["grid"])
@@ -411,10 +416,6 @@ def main(argv=None) -> int:
     except ValueError as error:  # also UsageError, RunDirError, CheckpointError, MemoryRefused
         return fail(error, 2)
     sweep["points"] = points
-    if args.cache:
-        sac_jax.enable_compilation_cache(args.cache_dir)
-    else:
-        sac_jax.compilation_cache.disable_compilation_cache()
     print(f"sweep of {len(points)} setting(s) x {sweep['seeds']} seed(s) in {len(programs)} "
           f"program(s) ({sweep['preset']} on {sweep['config'].env}) -> {out}", flush=True)
     stop = StopRequest()

@@ -204,16 +204,17 @@ def main(argv=None) -> int:
     sac_jax.compilation_cache.sequential_cpu_scheduler()
     try:
         args = parse_args(argv)
+        # before the memory check, whose state shapes the cache keeps (run_dir.state_template)
+        if args.cache:
+            sac_jax.enable_compilation_cache(args.cache_dir)
+        else:
+            sac_jax.compilation_cache.disable_compilation_cache()
         if args.resume:
             config, info, out, resume, fits = _resumed_run(args)
         else:
             (config, info, out, fits), resume = _new_run(args), None
     except ValueError as error:  # also UsageError, RunDirError and CheckpointError
         return fail(error, 2)
-    if args.cache:
-        sac_jax.enable_compilation_cache(args.cache_dir)
-    else:
-        sac_jax.compilation_cache.disable_compilation_cache()
     seeds = info.seeds
     budget = (f"up to {config.run_steps} steps each (a seed stops once its delivered policy "
               f"scores {config.stop_at:g} over {config.stop_measurements} measurement"

@@ -3,7 +3,8 @@ tracing, gives what `jax.jit` gives, donates when asked, and a damaged file is t
 program split over devices is stored and read back too. An executable compiled in a process is
 stored and loaded by later ones without lowering (in later processes too, found again after an
 edit that leaves the computation as it was); one that JAX's persistent cache supplied is not
-stored; a damaged one is compiled again and removed. The XLA flag the scripts set before JAX
+stored; a damaged one is compiled again and removed. A state's shapes are kept too, and read
+back by a later process without tracing. The XLA flag the scripts set before JAX
 starts changes the kernels' order, and only then."""
 
 import json
@@ -16,7 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sac_jax.program_cache import cached_lower, executable_file, program_file
+from sac_jax.program_cache import cached_lower, cached_shapes, executable_file, program_file
 from sac_jax.replay_buffer import Transition
 from tests.parallel_checks import run_parallel_checks
 from tests.subprocess_json import ROOT, run_json
@@ -300,3 +301,51 @@ def test_the_sequential_cpu_scheduler_is_set_before_jax_starts_and_orders_kernel
     assert early[0] == f"{isa} {SEQUENTIAL_CPU_SCHEDULER}"
     assert late[0] == isa and kept[0] == f"{isa} {concurrent}"
     assert early[1] != late[1] == kept[1]
+
+
+def _shapes_of(tree):
+    return [(x.shape, x.dtype, x.weak_type) for x in jax.tree_util.tree_leaves(tree)]
+
+
+def test_shapes_are_stored_once_then_read_without_tracing(tmp_path):
+    calls = []
+
+    def trace():
+        calls.append(1)
+        return jax.eval_shape(lambda: {"key": jax.random.key(0), "x": jnp.zeros((3, 2)),
+                                       "t": Transition(*[jnp.int32(0)] * 5), "w": 1.0})
+
+    first = cached_shapes("state", trace, str(tmp_path))
+    again = cached_shapes("state", trace, str(tmp_path))
+    assert len(calls) == 1 and [p.suffix for p in tmp_path.iterdir()] == [".shapes"]
+    assert jax.tree_util.tree_structure(again) == jax.tree_util.tree_structure(first)
+    assert _shapes_of(again) == _shapes_of(first) == _shapes_of(trace())
+    assert all(x.sharding is None for x in jax.tree_util.tree_leaves(again))
+    cached_shapes("other state", trace, str(tmp_path))  # another name: traced, a file of its own
+    assert len(calls) == 3 and len(os.listdir(tmp_path)) == 2
+    assert _shapes_of(cached_shapes("state", trace, None)) == _shapes_of(first)
+    assert len(calls) == 4 and len(os.listdir(tmp_path)) == 2  # no directory: always traced
+
+
+def test_damaged_shapes_are_traced_again_with_one_warning_and_replaced(tmp_path):
+    calls = []
+    trace = lambda: calls.append(1) or jax.eval_shape(lambda: jnp.zeros(3))
+    cached_shapes("state", trace, str(tmp_path))
+    (path,) = tmp_path.iterdir()
+    data = bytearray(path.read_bytes())
+    data[-1] ^= 0xFF
+    path.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="shapes .* damaged .checksum mismatch.; tracing"):
+        assert cached_shapes("state", trace, str(tmp_path)).shape == (3,)
+    assert len(calls) == 2
+    assert cached_shapes("state", trace, str(tmp_path)).shape == (3,) and len(calls) == 2
+
+
+def test_the_state_template_is_read_back_in_a_later_process(tmp_path):
+    """A warm process takes the state's shapes from the cache (its memory check traces
+    nothing), the same as the trace gives, importing MJX's classes as the environments do:
+    without Warp (1.3 s of imports where warp-lang is installed, as the test extra has it)."""
+    runs = [run_json(["-m", "tests.state_shapes_run", str(tmp_path)]) for _ in range(2)]
+    assert [run["traced"] for run in runs] == [True, False]
+    assert runs[0]["shapes"] == runs[1]["shapes"] and runs[1]["files"] == 1
+    assert not runs[1]["warp"]
