@@ -120,11 +120,11 @@ def cached_shapes(name: str, trace: Callable[[], Any], directory: Optional[str],
     start to its result in 5.36 s instead of 5.56 s (`fast`, 3 runs each, medians), 3.64 s
     instead of 4.41 s (`--preset CartpoleBalance --total-steps 2048`, 3 runs) and 6.90 s
     instead of 7.11 s (benchmarks/rejax_peer.py's flags, 5 runs; 2 cores of an AMD EPYC,
-    alternated with the tree before, 2026-12-05). The file is pickled, as trusted
-    as the executables beside it, and read back inside `unpickling()`, where the modules of
-    the tree's classes are imported (e.g. MJX's without Warp); one whose bytes do not match their checksum is traced again
-    and replaced, with one warning, one that does not unpickle (e.g. from other versions of
-    the classes in it) silently."""
+    alternated with the tree before, 2026-12-05). The file is
+    pickled, as trusted as the executables beside it, and read back inside `unpickling()`,
+    where the modules of the tree's classes are imported (e.g. MJX's without Warp). One whose
+    bytes do not match their checksum is traced again and replaced, with one warning; one that
+    does not unpickle (e.g. from other versions of the classes in it), silently."""
     def shapes(tree):
         return jax.tree_util.tree_map(
             lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, weak_type=x.weak_type), tree)

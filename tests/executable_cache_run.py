@@ -1,9 +1,10 @@
 """One process's use of `sac_jax.program_cache`, for tests/test_program_cache.py: with JAX's
 persistent compilation cache in CACHE and the program cache in PROGRAMS, `cached_lower` of a
 fixed donating step, compiled and called once; the step factors a matrix (on a CPU, a LAPACK
-call, whose kernels a loaded executable finds only if this process set them up). Prints a JSON object: the step's result, how
-many programs this process compiled or read from JAX's cache (`jax.stages.Lowered.compile`
-calls), and the traced programs and executables PROGRAMS then holds.
+call, whose kernels a loaded executable finds only if this process set them up). Prints a JSON
+object: the step's result, how many programs this process compiled or read from JAX's cache
+(`jax.stages.Lowered.compile` calls), and the traced programs and executables PROGRAMS then
+holds.
 
     python -m tests.executable_cache_run PROGRAMS CACHE
 """

@@ -4,8 +4,8 @@ program split over devices is stored and read back too. An executable compiled i
 stored and loaded by later ones without lowering (in later processes too, found again after an
 edit that leaves the computation as it was); one that JAX's persistent cache supplied is not
 stored; a damaged one is compiled again and removed. A state's shapes are kept too, and read
-back by a later process without tracing. The XLA flag the scripts set before JAX
-starts changes the kernels' order, and only then."""
+back by a later process without tracing. The XLA flag the scripts set before JAX starts
+changes the kernels' order, and only then."""
 
 import json
 import os
