@@ -56,10 +56,6 @@ fi
 # Bytecode now, as an installed package has it: the image sets PYTHONDONTWRITEBYTECODE, and without
 # this every process would compile these packages' sources again (1.7 s of each startup).
 python3 -m compileall -q -j 0 /tmp/site sac_jax envs scripts benchmarks >/dev/null 2>&1
-# The image's own packages too (jax, jaxlib and its CUDA plugin, numpy, scipy...), where they came
-# without it, as pip leaves them on a user's machine: every process of both sides imports them.
-image=$(python3 -c "import os, jax; print(os.path.dirname(os.path.dirname(jax.__file__)))")
-python3 -m compileall -q -j 0 -x '/(torch|triton|nvidia)/' "$image" >/dev/null 2>&1
 export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
 via=$(printf ' %q' "$@")  # quoted as a shell takes it back
 export SAC_JAX_BENCHMARK_VIA="bash benchmarks/gpu.sh${via}"  # recorded beside each file's command
