@@ -40,6 +40,15 @@ def disable_compilation_cache() -> None:
     jax.config.update("jax_enable_compilation_cache", False)
 
 
+def use_compilation_cache(on: bool, directory: Optional[str] = None) -> Optional[str]:
+    """A script's `--cache`/`--no-cache` (`--cache-dir`): `enable_compilation_cache(directory)`
+    if `on`, else `disable_compilation_cache()`; returns the directory in use, or None."""
+    if on:
+        return enable_compilation_cache(directory)
+    disable_compilation_cache()
+    return None
+
+
 def active_directory() -> Optional[str]:
     """The persistent compilation cache's directory; None while the cache is off."""
     directory = jax.config.jax_compilation_cache_dir

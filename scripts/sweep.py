@@ -389,10 +389,7 @@ def main(argv=None) -> int:
     try:
         args = parse_args(argv)
         # before the memory checks, whose state shapes the cache keeps (run_dir.state_template)
-        if args.cache:
-            sac_jax.enable_compilation_cache(args.cache_dir)
-        else:
-            sac_jax.compilation_cache.disable_compilation_cache()
+        sac_jax.compilation_cache.use_compilation_cache(args.cache, args.cache_dir)
         if args.resume:
             out, sweep = args.resume, _read_sweep(args.resume)
             points, programs = plan(sweep["config"], sweep["grid"])

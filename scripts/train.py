@@ -205,10 +205,7 @@ def main(argv=None) -> int:
     try:
         args = parse_args(argv)
         # before the memory check, whose state shapes the cache keeps (run_dir.state_template)
-        if args.cache:
-            sac_jax.enable_compilation_cache(args.cache_dir)
-        else:
-            sac_jax.compilation_cache.disable_compilation_cache()
+        sac_jax.compilation_cache.use_compilation_cache(args.cache, args.cache_dir)
         if args.resume:
             config, info, out, resume, fits = _resumed_run(args)
         else:
