@@ -20,6 +20,7 @@ import contextlib
 import dataclasses
 import functools
 import gc
+import threading
 import time
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -46,18 +47,37 @@ class DeviceBusy(Exception):
     the last saved one). The process should exit: the device may still be running."""
 
 
+STOP_CHECK_S = 0.05
+"""How often a wait for the device (`_wait`) looks whether a stop has been asked for."""
+
+
 def _wait(array: jax.Array, should_stop: Optional[Callable[[], bool]], grace_s: float) -> None:
-    """Waits for `array` by polling, so that signal handlers run while the device works (a
-    blocking fetch holds them off until it returns); raises `DeviceBusy` once `should_stop()`
-    has been true for `grace_s` seconds of the wait."""
+    """Waits for `array`, blocked on a helper thread while this one sleeps on an event: signal
+    handlers run during the wait (a blocking wait on this thread holds them off until it
+    returns), and the wait takes no processor time from the device's threads. Polling
+    `is_ready()` every 0.2 ms instead, rejax's Pendulum-v1 configuration trained in 6.15 s
+    against 5.88 s (`run_training`, medians of 8 alternated runs, 2 CPU cores of a Zen 4 AMD
+    EPYC). Raises `DeviceBusy` once `should_stop()` has been true for `grace_s` seconds of
+    the wait (looked at first and every `STOP_CHECK_S`)."""
+    if array.is_ready():
+        return
+    done = threading.Event()
+
+    def block():
+        with contextlib.suppress(Exception):  # a failed program's error: the caller's fetch
+            array.block_until_ready()         # raises it
+        done.set()
+
+    threading.Thread(target=block, name="device wait", daemon=True).start()
     asked = None
-    while not array.is_ready():
-        time.sleep(0.0002)  # 1 ms cost a run of 2,500 short chunks 0.7 s on the CPU
+    while True:
         if should_stop is not None and should_stop():
             asked = time.perf_counter() if asked is None else asked
             if time.perf_counter() - asked >= grace_s:
                 raise DeviceBusy(f"the device was still running a chunk {grace_s:g} s after "
                                  "the stop was asked for")
+        if done.wait(STOP_CHECK_S):
+            return
 
 
 @dataclasses.dataclass

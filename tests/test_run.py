@@ -5,6 +5,7 @@ fraction of seeds solved so far, and a non-finite state is named by quantity and
 import dataclasses
 import gc
 import logging
+import time
 
 import jax
 import jax.numpy as jnp
@@ -131,6 +132,53 @@ def test_a_stop_the_device_does_not_answer_in_time_leaves_the_chunk():
     assert result.status == run.INTERRUPTED and result.position.chunks_done == 1
     with pytest.raises(run.DeviceBusy, match="still running a chunk 0 s after the stop"):
         run.run_training(config, should_stop=lambda: True, stop_grace_s=0.0)
+
+
+class _SlowArray:
+    """Stands in for a device array that is ready `seconds` after it is made."""
+
+    def __init__(self, seconds: float):
+        import threading
+        self.made, self.seconds, self.polls = time.perf_counter(), seconds, 0
+        self._ready = threading.Event()
+        threading.Timer(seconds, self._ready.set).start()
+
+    def is_ready(self) -> bool:
+        self.polls += 1
+        return self._ready.is_set()
+
+    def block_until_ready(self):
+        self._ready.wait()
+        return self
+
+
+def test_the_wait_for_the_device_neither_polls_nor_holds_off_signal_handlers():
+    """`run._wait` returns as the array becomes ready, having asked it once (no polling, which
+    took processor time from the device's threads); a signal's handler runs during the wait
+    (here SIGALRM's, which raises at once, long before the array is ready)."""
+    import signal
+
+    array = _SlowArray(0.3)
+    run._wait(array, should_stop=lambda: False, grace_s=10.0)
+    waited = time.perf_counter() - array.made
+    assert 0.3 <= waited < 0.3 + 0.1 and array.polls == 1, (waited, array.polls)
+
+    class Alarm(Exception):
+        pass
+
+    def handler(signum, frame):
+        raise Alarm
+
+    before = signal.signal(signal.SIGALRM, handler)
+    try:
+        array = _SlowArray(5.0)
+        signal.setitimer(signal.ITIMER_REAL, 0.1)
+        with pytest.raises(Alarm):
+            run._wait(array, should_stop=None, grace_s=10.0)
+        assert time.perf_counter() - array.made < 1.0
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, before)
 
 
 def test_an_evaluation_and_its_confirmation_in_one_batch_return_what_each_alone_does():
