@@ -7,7 +7,7 @@ seed, the part itself with the seed axis taken off and put back,
 the next boundary (the prefill's end or the next evaluation point), then that point's
 evaluation (`Chunk`). The host calls them once per boundary (donating the state, so the replay
 buffers are updated in place), and between calls reads the points, checks for non-finite
-parameters and polls `should_stop`. The programs hold no host callback, so JAX's persistent
+parameters and asks `should_stop`. The programs hold no host callback, so JAX's persistent
 compilation cache keeps them. Because each chunk is a pure function of the state, a run
 stopped at a chunk boundary and resumed from that state ends exactly where the uninterrupted run
 does.
@@ -55,10 +55,10 @@ def _wait(array: jax.Array, should_stop: Optional[Callable[[], bool]], grace_s: 
     """Waits for `array`, blocked on a helper thread while this one sleeps on an event: signal
     handlers run during the wait (a blocking wait on this thread holds them off until it
     returns), and the wait takes no processor time from the device's threads. Polling
-    `is_ready()` every 0.2 ms instead, rejax's Pendulum-v1 configuration trained in 6.15 s
-    against 5.88 s (`run_training`, medians of 8 alternated runs, 2 CPU cores of a Zen 4 AMD
-    EPYC). Raises `DeviceBusy` once `should_stop()` has been true for `grace_s` seconds of
-    the wait (looked at first and every `STOP_CHECK_S`)."""
+    `is_ready()` every 0.2 ms instead, rejax's Pendulum-v1 configuration trained in 6.21 s
+    against 5.99 s (`run_training`, medians of 8 alternated runs, 2 CPU cores of a Zen 4 AMD
+    EPYC; blocking on this thread, 5.95 s). Raises `DeviceBusy` once `should_stop()` has
+    been true for `grace_s` seconds of the wait (looked at first and every `STOP_CHECK_S`)."""
     if array.is_ready():
         return
     done = threading.Event()
