@@ -67,6 +67,8 @@ def test_the_state_template_is_traced_once_per_configuration(monkeypatch):
     traced = []
     real = run_dir.make_train_parts
     monkeypatch.setattr(run_dir, "make_train_parts", lambda c: traced.append(1) or real(c))
+    # this process's memo alone: shapes kept on disk by an earlier run would not be traced
+    monkeypatch.setattr(run_dir.compilation_cache, "program_directory", lambda: None)
     run_dir._state_template.cache_clear()
     config = PRESETS["fast"].replace(buffer_size=4096, num_envs=2)
     first = run_dir.state_template(config, 2)
