@@ -9,10 +9,8 @@ Ours, with the same numbers (issue 28's command):
     --critic-lr 0.01 --alpha-lr 0.01 --tau 0.02 (and no early stop)
 
 measured two ways for each `--seeds` count:
-* program: `jax.jit(make_train(config))` (vmapped over seeds), lowered as the script lowers
-  its training program (`sac_jax.threefry_lowering.unrolled`; the script's evaluation program,
-  about 1 % of the run, draws as JAX lowers it), compile time and the median run time of
-  `--repeats` calls, as rejax's; and the share of that run its 20 evaluation points
+* program: `jax.jit(make_train(config))` (vmapped over seeds), compile time and the median run
+  time of `--repeats` calls, as rejax's; and the share of that run its 20 evaluation points
   take: 20 times the median of `--repeats` timings of one point through the script's own
   compiled `evaluate` (`sac_jax.run.compiled_program`), alone, on the state at the first point.
   (Earlier this was the difference from the same program evaluating at its end only; on a CPU
@@ -66,7 +64,6 @@ import numpy as np
 from benchmarks.delivered import train
 from benchmarks.provenance import provenance, result_name, write_result
 from benchmarks.rejax_side import timed
-from sac_jax import threefry_lowering
 from sac_jax.compilation_cache import SEQUENTIAL_CPU_SCHEDULER
 from sac_jax.parallel import seed_axis
 from sac_jax.presets import PRESETS
@@ -86,8 +83,7 @@ CONFIG = PRESETS["fast"].replace(
 
 def program(seeds: int, repeats: int) -> dict:
     train = make_train(CONFIG, seed_axis=seed_axis(seeds))  # as sac_jax.run's
-    with threefry_lowering.unrolled():  # draws lowered as in the script's training program
-        compile_s, times, (_, outputs) = timed(train, seeds, repeats)
+    compile_s, times, (_, outputs) = timed(train, seeds, repeats)
     delivered = np.asarray(outputs["delivered_return"]).reshape(seeds, -1)
     return dict(compile_s=round(compile_s, 3), run_s=round(statistics.median(times), 3),
                 run_times_s=[round(t, 3) for t in times],

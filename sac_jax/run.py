@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import envs
-from sac_jax import hyperparams, memory, threefry_lowering
+from sac_jax import hyperparams, memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import seed_axis, seed_devices, seed_mapping
@@ -244,11 +244,8 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
                     ("advance", parts.advance, (SEED_AXES,), SEED_AXES, [state], state, True),
                     ("evaluate", parts.evaluate, (EVALUATED_AXES,), EVALUATED_AXES,
                      [Chunk.evaluated(state)], Chunk.evaluated(state), True)):
-                # the training program's draws without Threefry's loop (the module's figures)
-                with (threefry_lowering.unrolled() if name == "advance"
-                      else contextlib.nullcontext()):
-                    placement, compile = compiling(name, part, in_axes, out_axes, args, result,
-                                                   donate)
+                placement, compile = compiling(name, part, in_axes, out_axes, args, result,
+                                               donate)
                 compiled.append(pool.submit(compile))
                 if name == "advance":  # where the state lives: split as its arguments are
                     sharding = (placement["in_shardings"][0] if placement
