@@ -2,14 +2,17 @@
 
 Every iteration of `sac_jax.train` draws through a source's two methods:
 
-    acting(k_act, k_random, iteration)  -> (random_action (n, A), action_noise (n, A))
-    learning(k_learn, size, iteration)  -> (batch_index (U, B), randomness of the U updates)
+    acting(k_act, iteration)           -> (random_action (n, A), action_noise (n, A))
+    learning(k_learn, size, iteration) -> (batch_index (U, B), update_noise of the U updates)
 
-`FromKeys` (what a run uses) draws them from the iteration's PRNG keys; the updates' randomness
-is then U keys, from which each `sac_update` draws its noise. `Replay` hands out a recorded
-stream (`Draws`, e.g. from `sac_jax.record_draws`) by iteration, the updates' randomness being
-the recorded noise; a reference implementation fed the same stream reproduces the run
-(tests/test_equivalence_loop.py). Evaluation and environment resets keep their keys either way.
+`FromKeys` (what a run uses) draws each method's numbers from its key with one Threefry hash
+(`jax.random.bits`), and turns the bits into uniforms, normals and slots as `jax.random.uniform`,
+`normal` and `randint` do (`uniform_from_bits`, `normal_from_bits`, `index_from_bits`). On a
+CPU each Threefry call is a loop of 5 trips whatever its size; one iteration drew through 13 of
+them, 4 now (with the iteration's split and the environments'). `Replay` hands out a recorded
+stream (`Draws`, e.g. from `sac_jax.record_draws`) by iteration; a reference implementation fed
+the same stream reproduces the run (tests/test_equivalence_loop.py). Evaluation and
+environment resets keep their keys either way.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ import flax.struct
 import jax
 import jax.numpy as jnp
 
-from sac_jax import replay_buffer as rb
+from sac_jax import updates
+from sac_jax.random_bits import index_from_bits, normal_from_bits, uniform_from_bits
 
 
 class Draws(flax.struct.PyTreeNode):
@@ -31,8 +35,8 @@ class Draws(flax.struct.PyTreeNode):
     random_action (n, A)  U(low, high): the actions during the prefill
     action_noise (n, A)   standard normal eps of the policy's action a = f(eps; s) afterwards
     batch_index (U, B)    int32 replay slots of the iteration's U minibatches
-    update_noise          for each of the U `sac_update`s the dict of `sample_noise`, every
-                          leaf with a leading axis U
+    update_noise          for each of the U `sac_update`s the dict of `sample_noise` (the
+                          entries its configuration reads), every leaf with a leading axis U
     Each iteration holds all of them; the prefill uses no batch_index, update_noise or
     action_noise, and training no random_action.
     """
@@ -44,25 +48,29 @@ class Draws(flax.struct.PyTreeNode):
 
 
 class FromKeys:
-    """Draws from PRNG keys: the source of every run."""
+    """Draws from PRNG keys: the source of every run. Each method hashes its key once
+    (`jax.random.bits`) and splits the bits into its draws."""
 
-    def __init__(self, num_envs: int, action_low, action_high, updates: int, batch_size: int):
-        self._n, self._updates, self._batch_size = num_envs, updates, batch_size
-        self._low, self._high = jnp.asarray(action_low), jnp.asarray(action_high)
+    def __init__(self, agent, num_envs: int, updates: int, batch_size: int):
+        self._agent, self._updates, self._batch_size = agent, updates, batch_size
+        self._shape = (num_envs, agent.action_size)
 
-    def acting(self, k_act: jax.Array, k_random: jax.Array, iteration: jax.Array
-               ) -> Tuple[jax.Array, jax.Array]:
-        """U(low, high) actions from k_random; N(0, 1) noise eps (n, A) from k_act."""
-        shape = (self._n,) + self._low.shape
-        return (jax.random.uniform(k_random, shape, minval=self._low, maxval=self._high),
-                jax.random.normal(k_act, shape, jnp.float32))
+    def acting(self, k_act: jax.Array, iteration: jax.Array) -> Tuple[jax.Array, jax.Array]:
+        """U(low, high) actions and N(0, 1) noise eps, each (n, A), from k_act."""
+        bits = jax.random.bits(k_act, (2,) + self._shape, jnp.uint32)
+        return (uniform_from_bits(bits[0], self._agent.action_low, self._agent.action_high),
+                normal_from_bits(bits[1]))
 
     def learning(self, k_learn: jax.Array, size: jax.Array, iteration: jax.Array
-                 ) -> Tuple[jax.Array, jax.Array]:
-        """Slots drawn uniformly from a buffer of `size`, and U keys for the updates' noise."""
-        k_batch, k_noise = jax.random.split(k_learn)
-        return (rb.sample_indices(k_batch, size, (self._updates, self._batch_size)),
-                jax.random.split(k_noise, self._updates))
+                 ) -> Tuple[jax.Array, Dict[str, jax.Array]]:
+        """Slots (U, B) drawn uniformly from a buffer of `size`, and the U updates' noise."""
+        words = updates.noise_words(self._agent, self._batch_size)
+        shape = (self._updates, 2 * self._batch_size + words)
+        bits = jax.random.bits(k_learn, shape, jnp.uint32)
+        slots = bits[:, :2 * self._batch_size].reshape(self._updates, 2, self._batch_size)
+        return (index_from_bits(jnp.swapaxes(slots, 0, 1), size),
+                jax.vmap(lambda b: updates.noise_from_bits(self._agent, b, self._batch_size))(
+                    bits[:, 2 * self._batch_size:]))
 
 
 class Replay:
@@ -75,7 +83,7 @@ class Replay:
     def _at(self, iteration: jax.Array) -> Draws:
         return jax.tree_util.tree_map(lambda x: x[iteration], self.draws)
 
-    def acting(self, k_act, k_random, iteration):
+    def acting(self, k_act, iteration):
         draws = self._at(iteration)
         return draws.random_action, draws.action_noise
 

@@ -61,7 +61,7 @@ from sac_jax.randomness import Draws, FromKeys, Replay, check
 from sac_jax.config import SACConfig
 from sac_jax.eval_point import EvalPoints, Pending
 from sac_jax.replay_buffer import ReplayBuffer, Transition
-from sac_jax.updates import sac_update, sample_noise
+from sac_jax.updates import sac_update
 
 METRIC_NAMES = ("critic_loss", "q", "actor_loss", "entropy", "alpha_loss", "alpha", "value_loss")
 EVAL_NAMES = ("eval_return", "confirm_return", "kept_return", "delivered_return", "stopped")
@@ -171,8 +171,8 @@ def _unless_stopped(stopped: jax.Array, old, new):
 def _learn(agent: Agent, source, watched: Tuple[str, ...], sac: SACState,
            buffer: ReplayBuffer, key: jax.Array, iteration: jax.Array):
     """One iteration's `updates_per_step` `sac_update`s, scanned over minibatches all gathered
-    at once. `source` draws the batch indices and, per update, a key (from which `sac_update`
-    draws its noise) or a recorded noise dict (`sac_jax.randomness`). Returns (sac, code,
+    at once. `source` draws the batch indices and each update's noise dict
+    (`sac_jax.randomness`). Returns (sac, code,
     metrics): `code` is the `_non_finite_code` of the first update whose result held a NaN or
     an infinity (0 if none); `metrics` {name: mean over the updates} for `METRIC_NAMES`,
     float32 whatever the parameters' dtype (float64 in the x64 equivalence test), NaN for a
@@ -219,8 +219,7 @@ def make_train_parts(config: SACConfig,
     agent, env = agent_for(config)
     vec = envs.VectorEnv(env, config.num_envs, reset_axis=seed_axis)
     points = EvalPoints(config, env)
-    keys = FromKeys(config.num_envs, agent.action_low, agent.action_high,
-                    config.updates_per_step, config.batch_size)
+    keys = FromKeys(agent, config.num_envs, config.updates_per_step, config.batch_size)
     source = keys if randomness is None else randomness
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
     batch_size = config.batch_size
@@ -229,10 +228,10 @@ def make_train_parts(config: SACConfig,
     nan = jnp.float32(jnp.nan)
 
     # The key chain, which `record_draws` follows through the same three splits: init splits
-    # (k_sac, k_env, k_run); each iteration splits the run key into (key, k_act, k_random,
-    # k_learn); each evaluation splits (key, k_eval, k_confirm).
+    # (k_sac, k_env, k_run); each iteration splits the run key into (key, k_act, k_learn);
+    # each evaluation splits (key, k_eval, k_confirm).
     init_keys = lambda key: jax.random.split(key, 3)
-    iteration_keys = lambda key: jax.random.split(key, 4)
+    iteration_keys = lambda key: jax.random.split(key, 3)
     point_keys = lambda key: jax.random.split(key, 3)
 
     def evaluates_after(iterations_done: jax.Array) -> jax.Array:
@@ -266,8 +265,8 @@ def make_train_parts(config: SACConfig,
 
     def iteration(agent: Agent, runner: RunnerState) -> RunnerState:
         learning = runner.iteration >= prefill
-        key, k_act, k_random, k_learn = iteration_keys(runner.key)
-        random_action, action_noise = source.acting(k_act, k_random, runner.iteration)
+        key, k_act, k_learn = iteration_keys(runner.key)
+        random_action, action_noise = source.acting(k_act, runner.iteration)
         obs = runner.env.env_state.obs
         with jax.named_scope("act"):
             action = jnp.where(
@@ -324,12 +323,9 @@ def make_train_parts(config: SACConfig,
 
     def record_draws(key: jax.Array) -> Draws:
         def one(key, i):
-            key, k_act, k_random, k_learn = iteration_keys(key)
+            key, k_act, k_learn = iteration_keys(key)
             size = jnp.minimum((i + 1) * n, config.buffer_size)  # after this iteration's add
-            index, noise_keys = keys.learning(k_learn, size, i)
-            draws = Draws(*keys.acting(k_act, k_random, i), batch_index=index,
-                          update_noise=jax.vmap(lambda k: sample_noise(agent, k, batch_size))(
-                              noise_keys))
+            draws = Draws(*keys.acting(k_act, i), *keys.learning(k_learn, size, i))
             key = jax.lax.cond(evaluates_after(i + 1), lambda k: point_keys(k)[0],
                                lambda k: k, key)
             return key, draws

@@ -15,6 +15,7 @@ parameters and optimiser states stay identical on all devices.
 
 from __future__ import annotations
 
+import math
 from typing import Callable, Dict, Tuple, Union
 
 import jax
@@ -22,6 +23,7 @@ import jax.numpy as jnp
 import optax
 
 from sac_jax import losses
+from sac_jax.random_bits import normal_from_bits
 from sac_jax.observation_norm import normalize
 from sac_jax.agent import Agent, SACState
 from sac_jax.replay_buffer import Transition
@@ -170,31 +172,47 @@ def update_value(agent: Agent, state: SACState, obs: jax.Array,
     return state.replace(value_params=params, value_opt_state=opt_state), {"value_loss": loss}
 
 
+def _noise_shapes(agent: Agent, batch_size: int) -> Dict[str, Tuple[int, ...]]:
+    """{entry: shape} of the noise `agent.config`'s update reads: "critic" and "value" (B, A),
+    "actor" and "temperature" (K, B, A) for K = policy_frequency actor steps."""
+    k, shape = agent.config.policy_frequency, (batch_size, agent.action_size)
+    blocks = {"critic": {"critic": shape}, "value": {"value": shape},
+              "actor": {"actor": (k,) + shape, "temperature": (k,) + shape}}
+    return {name: s for block in agent.config.update_order for name, s in blocks[block].items()}
+
+
+def noise_words(agent: Agent, batch_size: int) -> int:
+    """How many uint32 words `noise_from_bits` takes: one per number of `sample_noise`."""
+    return sum(math.prod(s) for s in _noise_shapes(agent, batch_size).values())
+
+
+def noise_from_bits(agent: Agent, bits: jax.Array, batch_size: int) -> Dict[str, jax.Array]:
+    """`sample_noise`'s dict from `noise_words` uint32 `bits`, in the order of the entries."""
+    noise, start = {}, 0
+    for name, shape in _noise_shapes(agent, batch_size).items():
+        size = math.prod(shape)
+        noise[name] = normal_from_bits(bits[start:start + size].reshape(shape))
+        start += size
+    return noise
+
+
 def sample_noise(agent: Agent, key: jax.Array, batch_size: int) -> Dict[str, jax.Array]:
-    """All noise one `sac_update` may use: "critic" and "value" (B, A); "actor" and
-    "temperature" (K, B, A) for K = policy_frequency actor steps."""
-    k = agent.config.policy_frequency
-    shape = (batch_size, agent.action_size)
-    keys = jax.random.split(key, 4)
-    return {"critic": jax.random.normal(keys[0], shape),
-            "value": jax.random.normal(keys[1], shape),
-            "actor": jax.random.normal(keys[2], (k,) + shape),
-            "temperature": jax.random.normal(keys[3], (k,) + shape)}
+    """All standard-normal noise one `sac_update` of `agent.config` reads, from one Threefry
+    hash of `key`: "critic", "value" (v1) (B, A); "actor" and "temperature" (K, B, A) for
+    K = policy_frequency actor steps."""
+    bits = jax.random.bits(key, (noise_words(agent, batch_size),), jnp.uint32)
+    return noise_from_bits(agent, bits, batch_size)
 
 
 def _check_noise(agent: Agent, noise: Dict[str, jax.Array], batch_size: int) -> None:
     """ValueError naming the first entry of `noise` that `agent.config`'s update reads and that
     is missing or not shaped as `sample_noise` draws it."""
-    k, shape = agent.config.policy_frequency, (batch_size, agent.action_size)
-    expected = {"critic": shape, "value": shape, "actor": (k,) + shape,
-                "temperature": (k,) + shape}
-    used = {"critic": ("critic",), "value": ("value",), "actor": ("actor", "temperature")}
-    for name in (n for block in agent.config.update_order for n in used[block]):
+    for name, shape in _noise_shapes(agent, batch_size).items():
         if name not in noise:
             raise ValueError(f'noise has no "{name}" entry (it has {sorted(noise)})')
-        if tuple(noise[name].shape) != expected[name]:
+        if tuple(noise[name].shape) != shape:
             raise ValueError(f'noise["{name}"] has shape {tuple(noise[name].shape)}, expected '
-                             f"{expected[name]}")
+                             f"{shape}")
 
 
 def _actor_block(agent: Agent, state: SACState, obs: jax.Array, noise) -> Tuple[SACState, Metrics]:
