@@ -14,6 +14,8 @@ import flax.struct
 import jax
 import jax.numpy as jnp
 
+from sac_jax.random_bits import index_from_bits
+
 
 class Transition(flax.struct.PyTreeNode):
     """(s, a, r, s', terminated). `action` in environment units; `next_obs` is the true
@@ -70,9 +72,9 @@ def add(buffer: ReplayBuffer, batch: Transition) -> ReplayBuffer:
 def sample_indices(key: jax.Array, size: jax.Array, batch_shape: Union[int, Tuple[int, ...]]
                    ) -> jax.Array:
     """int32 slots of shape `batch_shape` drawn uniformly with replacement from the filled slots
-    [0, size) (slot 0 while size is 0)."""
+    [0, size) (slot 0 while size is 0), from one Threefry hash of `key`."""
     shape = (batch_shape,) if isinstance(batch_shape, int) else tuple(batch_shape)
-    return jax.random.randint(key, shape, 0, jnp.maximum(size, 1))
+    return index_from_bits(jax.random.bits(key, (2,) + shape, jnp.uint32), size)
 
 
 def gather(buffer: ReplayBuffer, indices: jax.Array) -> Transition:

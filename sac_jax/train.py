@@ -172,11 +172,10 @@ def _learn(agent: Agent, source, watched: Tuple[str, ...], sac: SACState,
            buffer: ReplayBuffer, key: jax.Array, iteration: jax.Array):
     """One iteration's `updates_per_step` `sac_update`s, scanned over minibatches all gathered
     at once. `source` draws the batch indices and each update's noise dict
-    (`sac_jax.randomness`). Returns (sac, code,
-    metrics): `code` is the `_non_finite_code` of the first update whose result held a NaN or
-    an infinity (0 if none); `metrics` {name: mean over the updates} for `METRIC_NAMES`,
-    float32 whatever the parameters' dtype (float64 in the x64 equivalence test), NaN for a
-    metric the variant lacks."""
+    (`sac_jax.randomness`). Returns (sac, code, metrics): `code` is the `_non_finite_code` of
+    the first update whose result held a NaN or an infinity (0 if none); `metrics`
+    {name: mean over the updates} for `METRIC_NAMES`, float32 whatever the parameters' dtype
+    (float64 in the x64 equivalence test), NaN for a metric the variant lacks."""
     index, randomness = source.learning(key, buffer.size, iteration)
     with jax.named_scope("replay_sample"):
         batches = rb.gather(buffer, index)
@@ -222,7 +221,6 @@ def make_train_parts(config: SACConfig,
     keys = FromKeys(agent, config.num_envs, config.updates_per_step, config.batch_size)
     source = keys if randomness is None else randomness
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
-    batch_size = config.batch_size
     sum_names = METRIC_NAMES + ("train_return",)
     watched = non_finite_fields(config)
     nan = jnp.float32(jnp.nan)
