@@ -67,7 +67,7 @@ from benchmarks.rejax_side import timed
 from sac_jax.compilation_cache import SEQUENTIAL_CPU_SCHEDULER
 from sac_jax.parallel import seed_axis
 from sac_jax.presets import PRESETS
-from sac_jax.run import Chunk, compiled_program
+from sac_jax.run import Chunk, compiled_program, start_args
 from sac_jax.train import make_train, make_train_parts
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -97,7 +97,7 @@ def evaluation_s(seeds: int, repeats: int) -> float:
     `evaluate`, timed alone on the state at the first point (a fresh copy each call: the
     program consumes its argument)."""
     _, init, chunk, _ = compiled_program(CONFIG, seeds)
-    runner = init(jax.random.split(jax.random.key(0), seeds))
+    runner = init(*start_args(0, seeds))
     while int(runner.iteration) < CONFIG.prefill_iterations + CONFIG.iterations_per_eval:
         runner = chunk.advance(runner)
     state, times = Chunk.evaluated(runner), []

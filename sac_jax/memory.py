@@ -106,7 +106,7 @@ def need(config: SACConfig, seeds: int, platform: Optional[str] = None, temporar
          process: int = 0, available: Optional[int] = None) -> MemoryNeed:
     """The memory a run of `seeds` seeds of `config` needs on `platform` (default: JAX's
     default backend), from `jax.eval_shape` of its initial state, with the `temporaries` and
-    `process` bytes given (`compiled_parts`); with the bytes `available` before the run, a
+    `process` bytes given (`temporaries`, `process_bytes`); with the bytes `available` before the run, a
     checkpoint's copy counts only where it `copy_fits` beside the run's data, and on an
     accelerator only where it exceeds `IN_LINE_COPY_BYTES`."""
     from sac_jax.run_dir import state_template
@@ -125,28 +125,31 @@ def need(config: SACConfig, seeds: int, platform: Optional[str] = None, temporar
                       temporaries=temporaries, process=process)
 
 
-def compiled_parts(programs: Sequence, device: Optional[jax.Device] = None,
-                   devices: int = 1) -> Tuple[int, int]:
-    """(temporaries, process) of `need` once `programs` (the compiled programs a chunk runs
-    one after the other: `jax.stages.Compiled`s or `sac_jax.program_cache.CachedProgram`s,
-    each over `devices` devices) exist: XLA's temporary bytes of the largest of them (0 where
-    the backend does not say), which are one device's, times `devices` on a CPU, whose devices
-    all take the host's memory; and on a CPU this process's resident bytes now
-    (/proc/self/statm; 0 elsewhere: a device's free memory excludes them already). (A CPU run
-    of 64 seeds of `fast` over 2 devices, 2,048 steps: 894 MB at peak, estimated 833 MB with
-    one device's temporaries, 876 MB with both.)"""
+def temporaries(programs: Sequence, device: Optional[jax.Device] = None,
+                devices: int = 1) -> int:
+    """`need`'s temporaries for `programs` (the compiled programs a chunk runs one after the
+    other: `jax.stages.Compiled`s or `sac_jax.program_cache.CachedProgram`s, each over
+    `devices` devices): XLA's temporary bytes of the largest of them (0 where the backend does
+    not say), which are one device's, times `devices` on a CPU, whose devices all take the
+    host's memory. (A CPU run of 64 seeds of `fast` over 2 devices, 2,048 steps: 894 MB at
+    peak, estimated 833 MB with one device's temporaries, 876 MB with both.)"""
     try:
-        temporaries = max(int(p.memory_analysis().temp_size_in_bytes) for p in programs)
+        largest = max(int(p.memory_analysis().temp_size_in_bytes) for p in programs)
     except Exception:  # a backend without the analysis
-        temporaries = 0
+        return 0
+    return largest * devices if (device or jax.local_devices()[0]).platform == "cpu" else largest
+
+
+def process_bytes(device: Optional[jax.Device] = None) -> int:
+    """`need`'s process bytes: on a CPU this process's resident bytes now (/proc/self/statm),
+    elsewhere 0 (a device's free memory excludes them already)."""
     if (device or jax.local_devices()[0]).platform != "cpu":
-        return temporaries, 0
-    temporaries *= devices
+        return 0
     try:
         with open("/proc/self/statm") as f:
-            return temporaries, int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
     except (OSError, ValueError, IndexError):
-        return temporaries, 0
+        return 0
 
 
 def _proc_bytes(path: str, key: str) -> Optional[int]:

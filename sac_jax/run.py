@@ -182,9 +182,30 @@ def non_finite_name(sac, codes: np.ndarray, fields: Sequence[str]) -> str:
     return first_non_finite(_finite_flags(sac), first) or f"{first[lowest]} of seed {lowest}"
 
 
-def compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...] = ()):
-    """`_compiled_program` (kept per (config, seeds, swept), however they are passed)."""
-    return _compiled_program(config, seeds, tuple(swept))
+def compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...] = (),
+                     seed_keys: Optional[int] = None):
+    """`_compiled_program` (kept per (config, seeds, swept, seed_keys), however they are
+    passed; `seed_keys` defaults to `seeds`)."""
+    return _compiled_program(config, seeds, tuple(swept), seed_keys or seeds)
+
+
+def runs_init(init: Callable, seed_keys: int) -> Callable:
+    """`init(key, *hyperparams)` as `init(run, seed, *hyperparams)`: run `run` (of a program's
+    runs, numbered as `sac_jax.hyperparams.run_index` numbers them) starts from key
+    `run % seed_keys` of `jax.random.split(jax.random.key(seed), seed_keys)`, so that every
+    setting of a sweep trains the same keys. The split is in the init program, not on the
+    host: each computation run outside a compiled program is compiled when first run, and
+    those of the keys cost a warm start 0.06-0.08 s (2 CPU cores)."""
+    return lambda run, seed, *rest: init(
+        jax.random.split(jax.random.key(seed), seed_keys)[run % seed_keys], *rest)
+
+
+def start_args(seed: int, runs: int) -> Tuple[np.ndarray, np.ndarray]:
+    """The (run, seed) arguments of the compiled init program of `runs` runs (`runs_init`):
+    the runs' numbers, and `seed` as `jax.random.key(seed)` takes a Python int (in 64 bits,
+    then JAX's default integer type)."""
+    return (np.arange(runs, dtype=np.int32),
+            np.asarray(np.int64(seed)).astype(jax.dtypes.canonicalize_dtype(np.int64)))
 
 
 @contextlib.contextmanager
@@ -203,10 +224,11 @@ def _collector_paused():
 
 
 @functools.lru_cache(maxsize=4)
-def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
+def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...], seed_keys: int):
     """(parts, compiled vmapped init, `Chunk` of the compiled vmapped `advance` and `evaluate`,
     the state's sharding) for `seeds` seeds of `config` (with the hyperparameters `swept`
-    traced, one value per seed: `init(keys, {name: (seeds,)})`), the seeds split into equal
+    traced, one value per seed: `init(*start_args(seed, seeds), {name: (seeds,)})`, from
+    `seed_keys` keys, `runs_init`), the seeds split into equal
     groups over the local devices (`sac_jax.parallel.seed_devices`). Kept per (config, seeds,
     swept), so later runs of the same shapes in this process neither trace nor compile again;
     other processes find the traced programs and their executables in `sac_jax.program_cache`
@@ -222,6 +244,7 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
             return placement, functools.partial(jax.jit(
                 mapped, donate_argnums=(0,) if donate else (), **placement).lower(
                 *args).compile, compiler_options=options)
+        name = f"{name} of {seed_keys} keys" if name == "init" else name
         return placement, cached_lower(mapped, f"{name} {config!r}", args, result, directory,
                                        donate_first=donate, compiler_options=options,
                                        **placement).compile
@@ -230,17 +253,21 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...]):
     with concurrent.futures.ThreadPoolExecutor(4) as pool:
         with _collector_paused():
             parts = make_train_parts(config, seed_axis=seed_axis(seeds))
-            keys = jax.ShapeDtypeStruct((seeds,), jax.random.key(0).dtype)
-            values = {name: jax.ShapeDtypeStruct((seeds,), jnp.asarray(0.0).dtype)
+            keys = jax.eval_shape(lambda: jax.random.split(jax.random.key(0), seeds))
+            values = {name: jax.ShapeDtypeStruct((seeds,), jax.dtypes.canonicalize_dtype(float))
                       for name in swept}
-            starts = [keys, *([values] if swept else [])]
+            swept_values = [values] if swept else []
             # the state's shapes: traced once for the memory check, unless hyperparameters
             # are traced too (then the state holds them)
-            state = (jax.eval_shape(jax.vmap(parts.init, out_axes=SEED_AXES), *starts)
+            state = (jax.eval_shape(jax.vmap(parts.init, out_axes=SEED_AXES), keys,
+                                    *swept_values)
                      if swept else state_template(config, seeds))
+            runs, seed = (jax.ShapeDtypeStruct(x.shape, x.dtype) for x in start_args(0, seeds))
             compiled = []
             for name, part, in_axes, out_axes, args, result, donate in (
-                    ("init", parts.init, (0,) * len(starts), SEED_AXES, starts, state, False),
+                    ("init", runs_init(parts.init, seed_keys), (0, None, *(0,) * len(swept_values)),
+                     SEED_AXES,
+                     [runs, seed, *swept_values], state, False),
                     ("advance", parts.advance, (SEED_AXES,), SEED_AXES, [state], state, True),
                     ("evaluate", parts.evaluate, (EVALUATED_AXES,), EVALUATED_AXES,
                      [Chunk.evaluated(state)], Chunk.evaluated(state), True)):
@@ -335,17 +362,12 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     if check_memory:
         memory.check(config, seeds)
     t0 = time.perf_counter()
-    parts, init, chunk, sharding = compiled_program(config, seeds, tuple(values))
-    # before the state exists; a checkpoint's copy counted where it fits, as the writer makes it
-    temporaries, process = memory.compiled_parts((chunk.advance, chunk.evaluate),
-                                                 devices=len(seed_devices(seeds)))
-    model = memory.need(config, seeds, temporaries=temporaries, process=process,
-                        available=memory.available()[0])
+    parts, init, chunk, sharding = compiled_program(config, seeds, tuple(values), seed_keys)
+    # before the state exists (the programs' temporaries are read after the run: XLA's
+    # analysis of a loaded executable took 0.03 s each, 2 CPU cores)
+    process, available = memory.process_bytes(), memory.available()[0]
     if resume is None:
-        keys = jax.random.split(jax.random.key(seed), seed_keys)
-        if len(configs) > 1:  # every setting trains the same keys (hyperparams.run_index)
-            keys = jnp.concatenate([keys] * len(configs))
-        runner = init(keys, *([values] if values else []))
+        runner = init(*start_args(seed, seeds), *([values] if values else []))
         position = Position(startup_s=t0 - (t0 if started is None else started))
     else:
         runner, position = jax.device_put(resume[0], sharding), resume[1].copy()
@@ -402,6 +424,10 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
             break
 
     position.run_s = time.perf_counter() - start
+    # a checkpoint's copy counted where it fits, as the writer makes it
+    model = memory.need(config, seeds, available=available, process=process,
+                        temporaries=memory.temporaries((chunk.advance, chunk.evaluate),
+                                                       devices=len(seed_devices(seeds))))
     metrics = _run_metrics(config, runner, position, points)
     summary = dict(run_summary(config, metrics, points, position,
                                jax.device_get(runner.delivered.env_steps),

@@ -157,7 +157,7 @@ def _state_template(config: SACConfig, seeds: int, settings) -> RunnerState:
         configs, values = hyperparams.sweep(
             config, None if settings is None else {name: list(v) for name, v in settings}, seeds)
         init = jax.vmap(make_train_parts(configs[0]).init, out_axes=SEED_AXES)
-        keys = jax.random.split(jax.random.key(0), seeds * len(configs))
+        keys = jax.eval_shape(lambda: jax.random.split(jax.random.key(0), seeds * len(configs)))
         return jax.eval_shape(init, keys, *([values] if values else []))
 
     # the state's classes (MJX's, Playground's) imported as the environments import them

@@ -52,6 +52,7 @@ from typing import Callable, Dict, NamedTuple, Optional, Tuple
 import flax.struct
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 import envs
 from sac_jax import replay_buffer as rb
@@ -223,7 +224,7 @@ def make_train_parts(config: SACConfig,
     n, prefill, period = config.num_envs, config.prefill_iterations, config.iterations_per_eval
     sum_names = METRIC_NAMES + ("train_return",)
     watched = non_finite_fields(config)
-    nan = jnp.float32(jnp.nan)
+    nan = np.float32(np.nan)  # a constant: jnp's would be a computation, compiled at startup
 
     # The key chain, which `record_draws` follows through the same three splits: init splits
     # (k_sac, k_env, k_run); each iteration splits the run key into (key, k_act, k_learn);

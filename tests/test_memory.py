@@ -152,6 +152,6 @@ def test_temporaries_count_every_cpu_device_and_one_accelerator():
     programs = [types.SimpleNamespace(memory_analysis=lambda n=n: types.SimpleNamespace(
         temp_size_in_bytes=n)) for n in (100, 300)]
     cpu, gpu = (types.SimpleNamespace(platform=p) for p in ("cpu", "gpu"))
-    temporaries, process = memory.compiled_parts(programs, cpu, devices=2)
-    assert temporaries == 600 and process > 0
-    assert memory.compiled_parts(programs, gpu, devices=2) == (300, 0)
+    assert memory.temporaries(programs, cpu, devices=2) == 600
+    assert memory.temporaries(programs, gpu, devices=2) == 300
+    assert memory.process_bytes(cpu) > 0 and memory.process_bytes(gpu) == 0

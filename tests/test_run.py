@@ -66,7 +66,7 @@ def test_solved_at_is_where_the_returns_stay_at_the_threshold(returns, expected)
 
 def test_the_first_non_finite_array_is_named_with_its_seed():
     _, init, _, _ = run.compiled_program(CONFIG, 2)
-    sac = init(jax.random.split(jax.random.key(0), 2)).sac
+    sac = init(*run.start_args(0, 2)).sac
     flags = run._finite_flags
     assert run.first_non_finite(flags(sac)) is None
     bad = sac.replace(log_alpha=sac.log_alpha.at[1].set(jnp.nan))
@@ -80,7 +80,7 @@ def test_the_first_non_finite_array_is_named_with_its_seed():
 
 def test_a_set_code_names_the_array_or_else_its_field():
     _, init, _, _ = run.compiled_program(CONFIG, 2)
-    sac = init(jax.random.split(jax.random.key(0), 2)).sac
+    sac = init(*run.start_args(0, 2)).sac
     fields = train.non_finite_fields(CONFIG)
     code = np.array([0, fields.index("log_alpha") + 1])
     bad = sac.replace(log_alpha=sac.log_alpha.at[1].set(jnp.nan))
