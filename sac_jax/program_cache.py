@@ -47,6 +47,7 @@ import jax
 from jax import export
 from jax.experimental import serialize_executable
 from jax.interpreters import mlir
+from jaxlib.mlir import passmanager
 
 from sac_jax.whole_file import write_file
 
@@ -401,10 +402,28 @@ class CachedLowered:
                 return CachedProgram(compiled, self._result_tree)
             self._lowered = self._lower()
         hits = _cache_hits()
-        compiled = self._lowered.compile(compiler_options=self._options)
+        compiled = without_locations(self._lowered).compile(compiler_options=self._options)
         if self._executable is not None and _cache_hits() == hits:  # compiled here
             _write_executable(self._executable, compiled)
         return CachedProgram(compiled, self._result_tree)
+
+
+def without_locations(lowered: jax.stages.Lowered) -> jax.stages.Lowered:
+    """`lowered`, its program's source locations stripped in place (MLIR's strip-debuginfo
+    pass) before it is compiled: XLA keeps them in the executable, as each operation's
+    metadata, and rebuilds them whenever it loads it. rejax's Pendulum-v1 training program
+    (`jax.jit(make_train)`) was stored in 2.57 MB instead of 3.54 MB and loaded in 0.35-0.41 s
+    instead of 0.36-0.47 s (8 loads each), and a warm start of the script on it had its
+    programs in 0.33 s instead of 0.39 s (medians of 5 alternated runs; 2 CPU cores). JAX's
+    cache keys, and `_computation`, leave the locations out already. A `lowered` that holds
+    no MLIR module is returned as it is."""
+    try:
+        module = lowered.compiler_ir()
+    except Exception:  # noqa: BLE001 (a Lowered of another kind)
+        return lowered
+    with module.context:
+        passmanager.PassManager.parse("builtin.module(strip-debuginfo)").run(module.operation)
+    return lowered
 
 
 class CachedProgram:

@@ -34,7 +34,7 @@ from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import seed_axis, seed_devices, seed_mapping
 from sac_jax.position import Position
-from sac_jax.program_cache import cached_lower
+from sac_jax.program_cache import cached_lower, without_locations
 from sac_jax.run_dir import state_template
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts, non_finite_fields
 
@@ -228,9 +228,9 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...], see
     """(parts, compiled vmapped init, `Chunk` of the compiled vmapped `advance` and `evaluate`,
     the state's sharding) for `seeds` seeds of `config` (with the hyperparameters `swept`
     traced, one value per seed: `init(*start_args(seed, seeds), {name: (seeds,)})`, from
-    `seed_keys` keys, `runs_init`), the seeds split into equal
-    groups over the local devices (`sac_jax.parallel.seed_devices`). Kept per (config, seeds,
-    swept), so later runs of the same shapes in this process neither trace nor compile again;
+    `seed_keys` keys, `runs_init`), the seeds split into equal groups over the local devices
+    (`sac_jax.parallel.seed_devices`). Kept per (config, seeds, swept, seed_keys), so later
+    runs of the same shapes in this process neither trace nor compile again;
     other processes find the traced programs and their executables in `sac_jax.program_cache`
     (else the executables in the persistent compilation cache)."""
     directory = program_directory()
@@ -241,9 +241,9 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...], see
         through the program cache where it is on, else lowered now."""
         mapped, placement = seed_mapping(fn, seeds, in_axes, out_axes)
         if directory is None:
-            return placement, functools.partial(jax.jit(
+            return placement, functools.partial(without_locations(jax.jit(
                 mapped, donate_argnums=(0,) if donate else (), **placement).lower(
-                *args).compile, compiler_options=options)
+                *args)).compile, compiler_options=options)
         name = f"{name} of {seed_keys} keys" if name == "init" else name
         return placement, cached_lower(mapped, f"{name} {config!r}", args, result, directory,
                                        donate_first=donate, compiler_options=options,

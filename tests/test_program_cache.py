@@ -4,7 +4,8 @@ program split over devices is stored and read back too. An executable compiled i
 stored and loaded by later ones without lowering (in later processes too, found again after an
 edit that leaves the computation as it was); one that JAX's persistent cache supplied is not
 stored; a damaged one is compiled again and removed. A state's shapes are kept too, and read
-back by a later process without tracing. The XLA flag the scripts set before JAX starts
+back by a later process without tracing. Executables are compiled without source locations.
+The XLA flag the scripts set before JAX starts
 changes the kernels' order, and only then."""
 
 import json
@@ -17,7 +18,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sac_jax.program_cache import cached_lower, cached_shapes, executable_file, program_file
+from sac_jax.program_cache import (cached_lower, cached_shapes, executable_file, program_file,
+                                   without_locations)
 from sac_jax.replay_buffer import Transition
 from tests.parallel_checks import run_parallel_checks
 from tests.subprocess_json import ROOT, run_json
@@ -349,3 +351,14 @@ def test_the_state_template_is_read_back_in_a_later_process(tmp_path):
     assert [run["traced"] for run in runs] == [True, False]
     assert runs[0]["shapes"] == runs[1]["shapes"] and runs[1]["files"] == 1
     assert not runs[1]["warp"]
+
+
+def test_an_executable_is_compiled_without_source_locations():
+    state = {"key": jax.random.key(0), "x": jnp.arange(4.0),
+             "t": Transition(*(jnp.zeros(2),) * 4, terminated=jnp.zeros(2, bool))}
+    # a computation that JAX's persistent cache (whose keys leave locations out) cannot hold
+    lowered = jax.jit(_step_counting_traces([])).lower(state, 2.0)
+    assert 'loc("jit(step)/' in lowered.as_text(debug_info=True)  # XLA's op_name metadata
+    compiled = without_locations(lowered).compile()
+    assert 'loc("' not in lowered.as_text(debug_info=True)
+    assert 'op_name="jit(step)' not in compiled.as_text()

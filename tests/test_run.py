@@ -239,3 +239,14 @@ def test_the_collector_is_off_inside_the_tracing_block_and_left_as_it_was():
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+@pytest.mark.parametrize("seed", [0, 7, 2**31 - 1, 2**31, 2**32 - 1])
+def test_the_init_program_starts_each_run_from_the_seeds_split_key(seed):
+    """`runs_init` splits the seed's key in the program as the host would have: run r of a
+    sweep of 2 settings x 3 seeds starts from key r % 3 of split(key(seed), 3)."""
+    start = jax.jit(run.runs_init(lambda key: jax.random.key_data(key), 3))
+    runs, seed_value = run.start_args(seed, 6)
+    expected = jax.random.key_data(jax.random.split(jax.random.key(seed), 3))
+    np.testing.assert_array_equal(jax.vmap(start, (0, None))(runs, seed_value),
+                                  np.concatenate([expected, expected]))
