@@ -106,9 +106,9 @@ def need(config: SACConfig, seeds: int, platform: Optional[str] = None, temporar
          process: int = 0, available: Optional[int] = None) -> MemoryNeed:
     """The memory a run of `seeds` seeds of `config` needs on `platform` (default: JAX's
     default backend), from `jax.eval_shape` of its initial state, with the `temporaries` and
-    `process` bytes given (`temporaries`, `process_bytes`); with the bytes `available` before the run, a
-    checkpoint's copy counts only where it `copy_fits` beside the run's data, and on an
-    accelerator only where it exceeds `IN_LINE_COPY_BYTES`."""
+    `process` bytes given (`temporaries`, `process_bytes`); with the bytes `available` before
+    the run, a checkpoint's copy counts only where it `copy_fits` beside the run's data, and
+    on an accelerator only where it exceeds `IN_LINE_COPY_BYTES`."""
     from sac_jax.run_dir import state_template
 
     state = state_template(config, seeds)

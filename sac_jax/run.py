@@ -25,7 +25,6 @@ import time
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 import envs
@@ -230,9 +229,9 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...], see
     traced, one value per seed: `init(*start_args(seed, seeds), {name: (seeds,)})`, from
     `seed_keys` keys, `runs_init`), the seeds split into equal groups over the local devices
     (`sac_jax.parallel.seed_devices`). Kept per (config, seeds, swept, seed_keys), so later
-    runs of the same shapes in this process neither trace nor compile again;
-    other processes find the traced programs and their executables in `sac_jax.program_cache`
-    (else the executables in the persistent compilation cache)."""
+    runs of the same shapes in this process neither trace nor compile again; other processes
+    find the traced programs and their executables in `sac_jax.program_cache` (else the
+    executables in the persistent compilation cache)."""
     directory = program_directory()
     options = compiler_options(config.make_env())
 
@@ -265,9 +264,9 @@ def _compiled_program(config: SACConfig, seeds: int, swept: Tuple[str, ...], see
             runs, seed = (jax.ShapeDtypeStruct(x.shape, x.dtype) for x in start_args(0, seeds))
             compiled = []
             for name, part, in_axes, out_axes, args, result, donate in (
-                    ("init", runs_init(parts.init, seed_keys), (0, None, *(0,) * len(swept_values)),
-                     SEED_AXES,
-                     [runs, seed, *swept_values], state, False),
+                    ("init", runs_init(parts.init, seed_keys),
+                     (0, None, *(0,) * len(swept_values)), SEED_AXES, [runs, seed, *swept_values],
+                     state, False),
                     ("advance", parts.advance, (SEED_AXES,), SEED_AXES, [state], state, True),
                     ("evaluate", parts.evaluate, (EVALUATED_AXES,), EVALUATED_AXES,
                      [Chunk.evaluated(state)], Chunk.evaluated(state), True)):

@@ -5,8 +5,7 @@ stored and loaded by later ones without lowering (in later processes too, found 
 edit that leaves the computation as it was); one that JAX's persistent cache supplied is not
 stored; a damaged one is compiled again and removed. A state's shapes are kept too, and read
 back by a later process without tracing. Executables are compiled without source locations.
-The XLA flag the scripts set before JAX starts
-changes the kernels' order, and only then."""
+The XLA flag the scripts set before JAX starts changes the kernels' order, and only then."""
 
 import json
 import os
