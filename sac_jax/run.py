@@ -194,7 +194,7 @@ def runs_init(init: Callable, seed_keys: int) -> Callable:
     `run % seed_keys` of `jax.random.split(jax.random.key(seed), seed_keys)`, so that every
     setting of a sweep trains the same keys. The split is in the init program, not on the
     host: each computation run outside a compiled program is compiled when first run, and
-    those of the keys cost a warm start 0.06-0.08 s (2 CPU cores)."""
+    those of the keys cost a warm start about 0.04-0.06 s (2 CPU cores)."""
     return lambda run, seed, *rest: init(
         jax.random.split(jax.random.key(seed), seed_keys)[run % seed_keys], *rest)
 
