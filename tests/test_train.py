@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import sac_jax
+from sac_jax.train import make_train_parts
 from tests.parallel_checks import LEARNER_BOUND, METRIC_ULPS
 
 CONFIG = sac_jax.PRESETS["pendulum"].replace(
@@ -121,6 +122,28 @@ def test_replay_buffer_is_updated_in_place_inside_the_loop():
         if re.search(rf"= \w+\[{capacity}[,\]]", line) and " copy(" in line:
             copies.append(computation)
     assert all(c == "ENTRY" for c in copies), copies
+
+
+def test_chunks_of_at_most_max_iterations_end_on_the_boundaries_and_give_the_run(first):
+    """`advance(runner, max_iterations)` stops at the next boundary or after `max_iterations`
+    iterations, whichever comes first, also where its fixed-length blocks (gcd(prefill,
+    period, max_iterations) = 16 iterations here) are shorter than the chunk, and the chunks
+    make the run of `train` (the module's first run)."""
+    parts = make_train_parts(CONFIG)
+    advance = jax.jit(lambda runner: parts.advance(runner, max_iterations=48))
+    evaluate = jax.jit(parts.evaluate)
+    runner, ends = parts.init(KEYS[0]), []
+    while int(runner.iteration) < parts.num_iterations:
+        runner = evaluate(advance(runner))
+        ends.append(int(runner.iteration))
+    # prefill 128 iterations (256 steps of 2 envs), then a point every 128
+    assert ends == [48, 96, 128, 176, 224, 256, 304, 352, 384, 432, 480, 512]
+    expected_metrics, expected_sac, expected_buffer = _comparable(first)
+    runner, metrics = jax.device_get((runner, runner.outputs))
+    np.testing.assert_array_equal(runner.buffer.size, expected_buffer.size)
+    jax.tree_util.tree_map(np.testing.assert_array_equal, runner.buffer.data,
+                           expected_buffer.data)
+    jax.tree_util.tree_map(np.testing.assert_array_equal, metrics, expected_metrics)
 
 
 def test_replaying_the_recorded_draws_reproduces_the_run(first):
