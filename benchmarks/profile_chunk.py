@@ -3,6 +3,7 @@
     python -m benchmarks.profile_chunk [--preset fast] [--seeds 1 256] [--hidden-dtype bfloat16]
                                        [--chunks 4] [--top 10]
 
+`--preset rejax` profiles rejax's Pendulum-v1 configuration (`benchmarks.rejax_peer.CONFIG`).
 For each seed count: compiles the chunk of the preset as `scripts/train.py --seeds S`
 runs it on one device (`sac_jax.parallel.seeds_program`), runs `--chunks` chunks (the first
 is the prefill), then one more under `jax.profiler.trace`. Each GPU kernel of that chunk is
@@ -87,9 +88,17 @@ def kernel_time_by_part(trace_dir: str, names: dict, top: int) -> tuple:
     return by_part, tops
 
 
+def configuration(preset: str):
+    """The named preset's SACConfig, or rejax's configuration for "rejax"."""
+    if preset == "rejax":
+        from benchmarks.rejax_peer import CONFIG
+        return CONFIG
+    return PRESETS[preset]
+
+
 def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
-    config = dataclasses.replace(PRESETS[preset], hidden_dtype=hidden_dtype or
-                                 PRESETS[preset].hidden_dtype)
+    config = configuration(preset)
+    config = dataclasses.replace(config, hidden_dtype=hidden_dtype or config.hidden_dtype)
     parts = make_train_parts(config, seed_axis=seed_axis(seeds))  # as sac_jax.run builds it
     init = seeds_program(parts.init, seeds, out_axes=SEED_AXES)
     chunk = seeds_program(parts.chunk, seeds, (SEED_AXES,), SEED_AXES, donate=True)
@@ -119,7 +128,7 @@ def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="fast")
+    parser.add_argument("--preset", choices=sorted(PRESETS) + ["rejax"], default="fast")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 256])
     parser.add_argument("--hidden-dtype", choices=["float32", "bfloat16"], default=None,
                         help="the hidden layers' dtype (default: the preset's)")
