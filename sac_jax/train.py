@@ -110,10 +110,9 @@ class TrainParts(NamedTuple):
     """`init(key, hyperparams=None) -> RunnerState`; `advance(runner, max_iterations=None) ->
     runner`, the iterations up to the next boundary (the prefill's end, or the next evaluation
     point), at most `max_iterations` (static, the same in every call of a run) if given;
-    `evaluate(runner) -> runner`, the
-    evaluation point the runner has reached (nothing elsewhere), which reads neither `env` nor
-    `buffer` (they may be None); `chunk` is `advance` then `evaluate`, and `num_chunks` chunks
-    make the run's `num_iterations` iterations;
+    `evaluate(runner) -> runner`, the evaluation point the runner has reached (nothing
+    elsewhere), which reads neither `env` nor `buffer` (they may be None); `chunk` is `advance`
+    then `evaluate`, and `num_chunks` chunks make the run's `num_iterations` iterations;
     `record_draws(key) -> Draws`, the stream of the run from `init(key)` drawn from keys (see
     `record_draws`; None for the data-parallel parts of `sac_jax.parallel`)."""
 
