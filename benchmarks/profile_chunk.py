@@ -35,9 +35,9 @@ import time
 import jax
 from jax.profiler import ProfileData
 
+from benchmarks.configurations import NAMES, configuration
 from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax.parallel import seed_axis, seeds_program
-from sac_jax.presets import PRESETS
 from sac_jax.train import SEED_AXES, make_train_parts
 
 PARTS = ("act", "env_step", "replay_add", "replay_sample", "sac_update", "evaluate")
@@ -88,14 +88,6 @@ def kernel_time_by_part(trace_dir: str, names: dict, top: int) -> tuple:
     return by_part, tops
 
 
-def configuration(preset: str):
-    """The named preset's SACConfig, or rejax's configuration for "rejax"."""
-    if preset == "rejax":
-        from benchmarks.rejax_peer import CONFIG
-        return CONFIG
-    return PRESETS[preset]
-
-
 def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -> dict:
     config = configuration(preset)
     config = dataclasses.replace(config, hidden_dtype=hidden_dtype or config.hidden_dtype)
@@ -128,7 +120,7 @@ def profile(preset: str, seeds: int, hidden_dtype: str, chunks: int, top: int) -
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--preset", choices=sorted(PRESETS) + ["rejax"], default="fast")
+    parser.add_argument("--preset", choices=NAMES, default="fast")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 256])
     parser.add_argument("--hidden-dtype", choices=["float32", "bfloat16"], default=None,
                         help="the hidden layers' dtype (default: the preset's)")

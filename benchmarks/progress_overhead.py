@@ -22,6 +22,7 @@ evaluations can last different numbers of steps.
     python -m benchmarks.progress_overhead                  # the default preset, 1 seed
     python -m benchmarks.progress_overhead --preset pendulum --seeds 4 --repeats 5
     python -m benchmarks.progress_overhead --seeds 256 --repeats 5 --no-single-scan  # GPU
+    python -m benchmarks.progress_overhead --preset rejax   # rejax's Pendulum-v1 configuration
 
 Printed as one JSON line and written to benchmarks/results/NAME.json (`--name`, default
 progress_overhead-PRESET-KIND: progress_overhead-fast-cpu; command, machine, versions, date).
@@ -42,6 +43,7 @@ import jax
 import numpy as np
 
 import sac_jax
+from benchmarks.configurations import NAMES, configuration
 from benchmarks.provenance import provenance, result_name, write_result
 from sac_jax import metric_writers, run_checkpoint, run_dir
 from sac_jax.run import run_training
@@ -49,7 +51,8 @@ from sac_jax.run import run_training
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default=sac_jax.DEFAULT_PRESET, choices=sorted(sac_jax.PRESETS))
+    parser.add_argument("--preset", default=sac_jax.DEFAULT_PRESET, choices=NAMES,
+                        help="a preset, or rejax for rejax's Pendulum-v1 configuration")
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--no-single-scan", action="store_true",
@@ -59,7 +62,7 @@ def main():
     args = parser.parse_args()
     source = provenance()
     sac_jax.enable_compilation_cache()
-    config = sac_jax.PRESETS[args.preset]
+    config = configuration(args.preset)
     keys = jax.random.split(jax.random.key(0), args.seeds)
     if not args.no_single_scan:
         train = sac_jax.make_train(config, seed_axis="seeds")  # resets as the chunked run's
