@@ -216,16 +216,18 @@ def delivered_gpu() -> str:
 
 def presets() -> str:
     """4 seeds of each preset; every delivered policy scored over 10 episodes."""
-    rows, name = [], _gpu("presets_delivered")
-    if name is None:
-        return _pending("bash benchmarks/gpu.sh presets", " on a GPU")
-    data = _load(name)
-    for run, r in data["result"].items():
-        rows.append([f"`{run}`", f"{r['env']} ({r['threshold']:g}, {r['judged_in']})",
-                     r.get("confirm_episodes", 20), f"{r['solved']}/{r['seeds']}",
-                     _scores(r["scores"]), _date(data), f"`{name}.json`"])
-    return _table(["configuration", "task (solved, judged in)", "confirmation episodes",
-                   "delivered ≥ solved", "scores", "date", "results"], rows)
+    def rows_of(name, data):
+        return [[_where(data), f"`{run}`", f"{r['env']} ({r['threshold']:g}, {r['judged_in']})",
+                 r.get("confirm_episodes", 20), f"{r['solved']}/{r['seeds']}",
+                 _scores(r["scores"]), _date(data), f"`{name}.json`"]
+                for run, r in data["result"].items()]
+
+    return _sources([(_gpu("presets_delivered"), "bash benchmarks/gpu.sh presets"),
+                     (_find("presets_delivered-cpu"), "python -m benchmarks.presets_delivered "
+                      "--name presets_delivered-cpu")],
+                    ["machine", "configuration", "task (solved, judged in)",
+                     "confirmation episodes", "delivered ≥ solved", "scores", "date", "results"],
+                    rows_of)
 
 
 def _brax_rates(result) -> Tuple[Dict[str, Optional[float]], Optional[float]]:
