@@ -34,8 +34,9 @@ a first rejax process of the count filled), as sac-jax's scripts run by default.
 script, alternated, and the warm ratios are of the medians of R (`to_result_rounds`): one of
 each spread by 10 % or more on a shared CPU.
 
-Each side runs under its own XLA flags: ours those our scripts set (in the program's process
-too, `benchmarks/__init__.py`), rejax's without `SEQUENTIAL_CPU_SCHEDULER`, as its users run it.
+Each side runs under its own XLA flags and runtime: ours those our scripts set (in the program's
+process too, `benchmarks/__init__.py`: on a CPU, the scheduler flag and the one-seed runtime of
+one device of one thread), rejax's without them, as its users run it.
 
 What differs between the two trainers (and is not matched): rejax uses swish activations,
 observation normalisation and 128 evaluation episodes per point; ours ReLU, raw observations and
@@ -63,10 +64,10 @@ from typing import Optional
 import jax
 import numpy as np
 
+from benchmarks import PEER_ENVIRON
 from benchmarks.delivered import train
 from benchmarks.provenance import provenance, result_name, write_result
 from benchmarks.rejax_side import timed
-from sac_jax.compilation_cache import SEQUENTIAL_CPU_SCHEDULER
 from sac_jax.parallel import seed_axis
 from sac_jax.presets import PRESETS
 from sac_jax.run import Chunk, compiled_program, start_args
@@ -139,9 +140,9 @@ def main() -> None:
         parser.error(f"--rounds must be at least 1, got {args.rounds}")
     source = provenance()
 
-    # rejax as its users run it: without the XLA flag our scripts (and this process) add
-    rejax_env = dict(os.environ, XLA_FLAGS=" ".join(
-        f for f in os.environ.get("XLA_FLAGS", "").split() if f != SEQUENTIAL_CPU_SCHEDULER))
+    # rejax as its users run it: without what our scripts (and this process) add to XLA_FLAGS
+    # and the environment (benchmarks/__init__.py)
+    rejax_env = PEER_ENVIRON
 
     def rejax_side(n: int, repeats: int, cache: Optional[str] = None) -> dict:
         """One rejax process (its to_result_s is a fresh one's), JAX's cache in `cache`."""

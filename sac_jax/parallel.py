@@ -25,6 +25,8 @@ first, then build the mesh from `jax.devices()` (docs/parallel.md).
 
 from __future__ import annotations
 
+import importlib.metadata
+import importlib.util
 import os
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
@@ -143,24 +145,56 @@ def seeds_program(fn: Callable, seeds: int, in_axes=0, out_axes=0, donate: bool 
     return jax.jit(mapped, donate_argnums=(0,) if donate else (), **placement)
 
 
-def cpu_device_per_core() -> None:
-    """Makes JAX's CPU backend one device per CPU core this process may use
-    (`jax_num_cpu_devices`), so that `seeds_program` runs the seed groups of a CPU run on the
-    cores at once. XLA's CPU runtime keeps SAC's small layers mostly on one thread: 16 seeds of
-    rejax's Pendulum-v1 configuration (64 wide, batch 256, 10k steps) trained in 55.8 s on two
-    CPU devices against 95.9 s for the same program on one (2 cores, BENCHMARKS.md "rejax").
+def cpu_device_per_core(seeds: Optional[int] = None) -> None:
+    """Makes JAX's CPU backend one device per CPU core this process may use, and no more than
+    `seeds` (`jax_num_cpu_devices`), so that `seeds_program` runs the seed groups of a CPU run on
+    the cores at once. XLA's CPU runtime keeps SAC's small layers mostly on one thread: 16 seeds
+    of rejax's Pendulum-v1 configuration (64 wide, batch 256, 10k steps) trained in 55.8 s on
+    two CPU devices against 95.9 s for the same program on one (2 cores, BENCHMARKS.md "rejax").
+    A run on one device also gets a runtime of one thread (`single_thread_cpu_runtime`).
     Takes effect only before JAX starts its backends (the first array or device query); it
     leaves a count set already by $JAX_NUM_CPU_DEVICES or XLA_FLAGS'
     --xla_force_host_platform_device_count. Scripts call it; a library import does not."""
     if (jax.config.jax_num_cpu_devices != -1
             or "xla_force_host_platform_device_count" in os.environ.get("XLA_FLAGS", "")):
         return
+    cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+             else os.cpu_count() or 1)
+    count = cores if seeds is None else max(1, min(cores, seeds))
     try:
-        cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
-                 else os.cpu_count() or 1)
-        jax.config.update("jax_num_cpu_devices", cores)
+        jax.config.update("jax_num_cpu_devices", count)
     except RuntimeError:  # the backends have started: keep their devices
-        pass
+        return
+    if count == 1:
+        single_thread_cpu_runtime()
+
+
+def single_thread_cpu_runtime() -> None:
+    """Sizes the thread pool of JAX's CPU runtime to one thread ($PJRT_NPROC=1, which XLA reads
+    when JAX starts its backends), on a machine where JAX uses only its CPU backend ($PJRT_NPROC
+    also sizes a GPU client's host thread pool) and unless $PJRT_NPROC is set. On one CPU
+    device XLA otherwise hands SAC's small kernels between threads, at a cost larger than what
+    running them at once saves. 2 cores of a 2.6 GHz Intel Xeon, one device, warm
+    `scripts/train.py` runs alternated, 2 each: rejax's Pendulum-v1 configuration (1 seed, 10k
+    steps) trained in 4.44-4.65 s against 5.40-6.22 s on one device of XLA's default 2 threads
+    (5.78-6.19 s on one of 2 devices, the scripts' default before), and `fast` reached its
+    solved policy in 3.13-3.33 s against 3.38-3.44 s (one of 2 devices), with the same returns
+    bit for bit (2026-12-07). On several devices
+    XLA keeps at least one thread per device, and this changes nothing: 16 seeds on 2 devices
+    trained in 45.7-45.8 s against 44.7-45.5 s."""
+    if "PJRT_NPROC" not in os.environ and _only_cpu():
+        os.environ["PJRT_NPROC"] = "1"
+
+
+def _only_cpu() -> bool:
+    """Whether JAX will start its CPU backend alone: $JAX_PLATFORMS names only "cpu", or it
+    is unset and no accelerator plugin (the `jax_plugins` namespace or entry points) nor
+    libtpu is installed."""
+    if jax.config.jax_platforms:
+        return jax.config.jax_platforms.strip() == "cpu"
+    return (importlib.util.find_spec("jax_plugins") is None
+            and not importlib.metadata.entry_points(group="jax_plugins")
+            and importlib.util.find_spec("libtpu") is None)
 
 
 # ---------------------------------------------------------------------------- data parallel

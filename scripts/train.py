@@ -132,6 +132,7 @@ def _new_run(args: TrainArgs):
     """(config, run info, run directory, memory line) of a fresh run; the directory is created
     last, once every input is known to be good and the run to fit in memory. ValueError on bad
     input (`memory.MemoryRefused` for a run that cannot fit)."""
+    parallel.cpu_device_per_core(args.seeds)  # before JAX starts: a CPU's seeds over its cores
     info = run_dir.RunInfo(args.preset, args.seeds, args.seed)
     out = args.out or os.path.join(
         "runs", f"{args.preset}-{args.config.env}-{time.strftime('%Y%m%d-%H%M%S')}")
@@ -157,6 +158,7 @@ def _resumed_run(args: TrainArgs):
     """(config, run info, run directory, (state, position), memory line) of the run in
     `--resume`."""
     config, info = run_dir.read_config(args.resume)
+    parallel.cpu_device_per_core(info.runs)  # before JAX starts: a CPU's seeds over its cores
     if tracking.load_settings(args.resume) is not None:
         tracking.check_available()
     fits = _memory_line(args, config, info.runs)
@@ -198,9 +200,8 @@ def _outcome(summary: dict) -> str:
 
 
 def main(argv=None) -> int:
-    # first, before JAX starts (here or from `sac-jax`): a CPU's seeds split over its cores,
-    # and XLA's CPU kernels in sequence (`compilation_cache.sequential_cpu_scheduler`)
-    parallel.cpu_device_per_core()
+    # first, before JAX starts (here or from `sac-jax`): XLA's CPU kernels in sequence
+    # (`compilation_cache.sequential_cpu_scheduler`); the devices once the seeds are known
     sac_jax.compilation_cache.sequential_cpu_scheduler()
     try:
         args = parse_args(argv)

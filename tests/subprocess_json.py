@@ -14,8 +14,10 @@ def run_json(args, **env_vars) -> dict:
     the calling test with the script's stderr if it exits non-zero. XLA_FLAGS given here are
     appended to the caller's, not put in their place, so flags the suite runs under (such as
     `--xla_cpu_max_isa=SSE4_2`, emulating a CPU with fewer vector extensions) reach the
-    subprocess too."""
-    env = dict(os.environ, **env_vars)
+    subprocess too; a variable given None is unset there."""
+    env = dict(os.environ, **{k: v for k, v in env_vars.items() if v is not None})
+    for name in [k for k, v in env_vars.items() if v is None]:
+        env.pop(name, None)
     if "XLA_FLAGS" in env_vars:
         env["XLA_FLAGS"] = " ".join(filter(None, [os.environ.get("XLA_FLAGS"),
                                                   env_vars["XLA_FLAGS"]]))

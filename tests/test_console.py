@@ -66,6 +66,9 @@ def test_the_flags_reach_the_script(tmp_path, capsys):
     assert err == f"error: {tmp_path / 'nowhere'}: no such run directory\n"
 
 
+CORES = len(os.sched_getaffinity(0))
+
+
 def _python(code: str, env=None) -> str:
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=300, env=env)
@@ -73,23 +76,28 @@ def _python(code: str, env=None) -> str:
     return done.stdout.strip()
 
 
-@pytest.mark.parametrize("command", ["train", "sweep"])
-def test_the_launcher_gives_the_training_scripts_a_cpu_device_per_core(command):
+@pytest.mark.parametrize("command, flags, devices", [
+    ("train", "'--seeds', '3', '--out', 'README.md'", min(3, CORES)),
+    ("train", "'--seeds', '1', '--out', 'README.md'", 1),
+    ("sweep", "'--seeds', '0'", CORES)])
+def test_the_launcher_gives_the_training_scripts_a_cpu_device_per_core(command, flags, devices):
     """As when run as files: `sac-jax train --seeds 16` on a CPU splits its seeds over the
-    cores (the launcher had left one device: half the speed, and other compiled programs), and
-    XLA's flags are the scripts' (`compilation_cache.sequential_cpu_scheduler`)."""
+    cores, a device each and no more devices than seeds (the launcher had left one device: half
+    the speed, and other compiled programs), and XLA's flags are the scripts'
+    (`compilation_cache.sequential_cpu_scheduler`). Each command is refused (an existing --out,
+    --seeds 0) after the devices were set."""
     from sac_jax.compilation_cache import SEQUENTIAL_CPU_SCHEDULER
 
     code = ("import atexit, os, sys, jax; from scripts import console; "
             "atexit.register(lambda: print('devices', len(jax.devices()), "
             "os.environ.get('XLA_FLAGS'))); "
-            f"sys.argv = ['sac-jax', '{command}', '--seeds', '0']; console.main()")
+            f"sys.argv = ['sac-jax', '{command}', {flags}]; console.main()")
     env = dict(os.environ, JAX_NUM_CPU_DEVICES="-1", JAX_PLATFORMS="cpu")
     env.pop("XLA_FLAGS", None)
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                           text=True, timeout=300, env=env)
-    assert done.returncode == 2, done.stderr  # --seeds 0 refused, after the devices were set
-    assert done.stdout.strip().splitlines()[-1] == (f"devices {len(os.sched_getaffinity(0))} "
+    assert done.returncode == 2, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == (f"devices {devices} "
                                                     f"{SEQUENTIAL_CPU_SCHEDULER}")
 
 

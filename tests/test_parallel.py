@@ -7,6 +7,7 @@ one-device mesh reproduces `make_train`; a data-parallel run learns Pendulum-v1.
 devices: the one-seed program gives what the vmap gives; configs and meshes are checked; seeds
 split into equal groups; scripts' one CPU device per core (in subprocesses)."""
 
+import json
 import os
 
 import jax
@@ -169,16 +170,37 @@ def test_seeds_split_into_the_most_equal_groups_the_devices_allow():
     assert parallel.seed_devices(1, devices) == ["d0"]
 
 
-CPU_DEVICES = ("import json, sys, jax; from sac_jax import parallel; "
-               "sys.argv[1] == 'late' and jax.devices(); parallel.cpu_device_per_core(); "
-               "print(json.dumps(len(jax.devices())))")
+CPU_DEVICES = ("import json, os, sys, jax; from sac_jax import parallel; "
+               "sys.argv[1] == 'late' and jax.devices(); "
+               "parallel.cpu_device_per_core(json.loads(sys.argv[2])); "
+               "print(json.dumps([len(jax.devices()), os.environ.get('PJRT_NPROC')]))")
+CORES = len(os.sched_getaffinity(0))
 
 
-@pytest.mark.parametrize("when, env, expected", [
-    ("early", {}, len(os.sched_getaffinity(0))),
-    ("late", {}, 1),  # the backends had started: their devices stay
-    ("early", {"XLA_FLAGS": "--xla_force_host_platform_device_count=3"}, 3),
-    ("early", {"JAX_NUM_CPU_DEVICES": "1"}, 1)])
-def test_scripts_make_one_cpu_device_per_core_unless_a_count_is_set(when, env, expected):
-    env = {"JAX_NUM_CPU_DEVICES": "-1", "JAX_PLATFORMS": "cpu", **env}
-    assert run_json(["-c", CPU_DEVICES, when], **env) == expected
+@pytest.mark.parametrize("when, seeds, env, expected", [
+    ("early", None, {}, [CORES, None]),
+    ("early", 64, {}, [CORES, None]),
+    ("early", 1, {}, [1, "1"]),  # one device, and a runtime of one thread
+    ("early", 1, {"PJRT_NPROC": "2"}, [1, "2"]),  # a thread count set already stays
+    ("late", 16, {}, [1, None]),  # the backends had started: their devices stay
+    ("early", 16, {"XLA_FLAGS": "--xla_force_host_platform_device_count=3"}, [3, None]),
+    ("early", 16, {"JAX_NUM_CPU_DEVICES": "1"}, [1, None])])
+def test_scripts_make_one_cpu_device_per_core_and_seed_unless_a_count_is_set(
+        when, seeds, env, expected):
+    env = {"JAX_NUM_CPU_DEVICES": "-1", "JAX_PLATFORMS": "cpu", "PJRT_NPROC": None, **env}
+    assert run_json(["-c", CPU_DEVICES, when, json.dumps(seeds)], **env) == expected
+
+
+@pytest.mark.parametrize("platforms, only_cpu", [("cpu", True), ("cuda,cpu", False),
+                                                 ("tpu", False)])
+def test_one_runtime_thread_only_where_jax_starts_its_cpu_backend_alone(
+        monkeypatch, platforms, only_cpu):
+    """$PJRT_NPROC also sizes a GPU client's host thread pool: it is left alone there."""
+    monkeypatch.delenv("PJRT_NPROC", raising=False)
+    saved = jax.config.jax_platforms
+    try:
+        jax.config.update("jax_platforms", platforms)
+        parallel.single_thread_cpu_runtime()
+    finally:
+        jax.config.update("jax_platforms", saved)
+    assert os.environ.get("PJRT_NPROC") == ("1" if only_cpu else None)
