@@ -171,17 +171,17 @@ def cpu_device_per_core(seeds: Optional[int] = None) -> None:
 
 def single_thread_cpu_runtime() -> None:
     """Sizes the thread pool of JAX's CPU runtime to one thread ($PJRT_NPROC=1, which XLA reads
-    when JAX starts its backends), on a machine where JAX uses only its CPU backend ($PJRT_NPROC
-    also sizes a GPU client's host thread pool) and unless $PJRT_NPROC is set. On one CPU
-    device XLA otherwise hands SAC's small kernels between threads, at a cost larger than what
-    running them at once saves. 2 cores of a 2.6 GHz Intel Xeon, one device, warm
-    `scripts/train.py` runs alternated, 2 each: rejax's Pendulum-v1 configuration (1 seed, 10k
-    steps) trained in 4.44-4.65 s against 5.40-6.22 s on one device of XLA's default 2 threads
-    (5.78-6.19 s on one of 2 devices, the scripts' default before), and `fast` reached its
-    solved policy in 3.13-3.33 s against 3.38-3.44 s (one of 2 devices), with the same returns
-    bit for bit (2026-12-07). On several devices
-    XLA keeps at least one thread per device, and this changes nothing: 16 seeds on 2 devices
-    trained in 45.7-45.8 s against 44.7-45.5 s."""
+    when JAX starts its backends), unless $PJRT_NPROC is set, and only where JAX uses its CPU
+    backend alone ($PJRT_NPROC also sizes a GPU client's host thread pool). On one CPU device
+    XLA otherwise hands SAC's small kernels between threads, at a cost larger than what running
+    them at once saves. 2 cores of a 2.6 GHz Intel Xeon, 2026-12-07, alternated processes, the
+    same returns bit for bit: warm `scripts/train.py` runs of rejax's Pendulum-v1 configuration
+    (1 seed, 10k steps) trained in 4.44-4.65 s against 5.40-6.22 s on one device of XLA's
+    default 2 threads and 5.78-6.19 s on one of 2 devices (the scripts' earlier default), its
+    jitted program in 4.48-4.71 s against 5.72-5.78 s; a cold README command compiled as long
+    (9.30 s against 9.24-9.37 s) and was solved after 3.58-3.82 s of training against
+    3.90-3.94 s. On several devices XLA keeps a thread per device and this changes nothing (16
+    seeds on 2 devices: 45.7-45.8 s against 44.7-45.5 s)."""
     if "PJRT_NPROC" not in os.environ and _only_cpu():
         os.environ["PJRT_NPROC"] = "1"
 
