@@ -146,12 +146,16 @@ def seeds_program(fn: Callable, seeds: int, in_axes=0, out_axes=0, donate: bool 
 
 
 def cpu_device_per_core(seeds: Optional[int] = None) -> None:
-    """Makes JAX's CPU backend one device per CPU core this process may use, and no more than
-    `seeds` (`jax_num_cpu_devices`), so that `seeds_program` runs the seed groups of a CPU run on
-    the cores at once. XLA's CPU runtime keeps SAC's small layers mostly on one thread: 16 seeds
-    of rejax's Pendulum-v1 configuration (64 wide, batch 256, 10k steps) trained in 55.8 s on
-    two CPU devices against 95.9 s for the same program on one (2 cores, BENCHMARKS.md "rejax").
-    A run on one device also gets a runtime of one thread (`single_thread_cpu_runtime`).
+    """Makes JAX's CPU backend one device per CPU core this process may use
+    (`jax_num_cpu_devices`), so that `seeds_program` runs the seed groups of a CPU run on the
+    cores at once; for a run of `seeds` seeds, only as many as `seed_devices` will use (the
+    largest count up to the cores that divides `seeds`). XLA's CPU runtime keeps SAC's small
+    layers mostly on one thread: 16 seeds of rejax's Pendulum-v1 configuration (64 wide, batch
+    256, 10k steps) trained in 55.8 s on two CPU devices against 95.9 s for the same program on
+    one (2 cores, BENCHMARKS.md "rejax"). A run on one device also gets a runtime of one thread
+    (`single_thread_cpu_runtime`): 3 seeds on 2 cores, which `seed_devices` keeps on one
+    device, trained in 16.3-16.9 s so against 21.3-21.5 s on one of 2 devices (2 alternated
+    warm `scripts/train.py` runs each, 2026-12-07).
     Takes effect only before JAX starts its backends (the first array or device query); it
     leaves a count set already by $JAX_NUM_CPU_DEVICES or XLA_FLAGS'
     --xla_force_host_platform_device_count. Scripts call it; a library import does not."""
@@ -160,7 +164,8 @@ def cpu_device_per_core(seeds: Optional[int] = None) -> None:
         return
     cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
              else os.cpu_count() or 1)
-    count = cores if seeds is None else max(1, min(cores, seeds))
+    count = cores if seeds is None else max(
+        k for k in range(1, min(cores, max(seeds, 1)) + 1) if seeds % k == 0)
     try:
         jax.config.update("jax_num_cpu_devices", count)
     except RuntimeError:  # the backends have started: keep their devices

@@ -77,7 +77,7 @@ def _python(code: str, env=None) -> str:
 
 
 @pytest.mark.parametrize("command, flags, devices", [
-    ("train", "'--seeds', '3', '--out', 'README.md'", min(3, CORES)),
+    ("train", "'--seeds', '4', '--out', 'README.md'", 4 if CORES >= 4 else min(2, CORES)),
     ("train", "'--seeds', '1', '--out', 'README.md'", 1),
     ("sweep", "'--seeds', '0'", CORES)])
 def test_the_launcher_gives_the_training_scripts_a_cpu_device_per_core(command, flags, devices):

@@ -175,11 +175,13 @@ CPU_DEVICES = ("import json, os, sys, jax; from sac_jax import parallel; "
                "parallel.cpu_device_per_core(json.loads(sys.argv[2])); "
                "print(json.dumps([len(jax.devices()), os.environ.get('PJRT_NPROC')]))")
 CORES = len(os.sched_getaffinity(0))
+USED = {seeds: len(parallel.seed_devices(seeds, range(CORES))) for seeds in (3, 64)}
 
 
 @pytest.mark.parametrize("when, seeds, env, expected", [
     ("early", None, {}, [CORES, None]),
-    ("early", 64, {}, [CORES, None]),
+    ("early", 64, {}, [USED[64], "1" if USED[64] == 1 else None]),  # as many as seed_devices
+    ("early", 3, {}, [USED[3], "1" if USED[3] == 1 else None]),  # uses (on 2 cores: 1 for 3)
     ("early", 1, {}, [1, "1"]),  # one device, and a runtime of one thread
     ("early", 1, {"PJRT_NPROC": "2"}, [1, "2"]),  # a thread count set already stays
     ("late", 16, {}, [1, None]),  # the backends had started: their devices stay
