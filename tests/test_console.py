@@ -82,8 +82,8 @@ def _python(code: str, env=None) -> str:
     ("sweep", "'--seeds', '0'", CORES)])
 def test_the_launcher_gives_the_training_scripts_a_cpu_device_per_core(command, flags, devices):
     """As when run as files: `sac-jax train --seeds 16` on a CPU splits its seeds over the
-    cores, a device each and no more devices than seeds (the launcher had left one device: half
-    the speed, and other compiled programs), and XLA's flags are the scripts'
+    cores, a device each, only as many as divide the seeds (the launcher had left one device:
+    half the speed, and other compiled programs), and XLA's flags are the scripts'
     (`compilation_cache.sequential_cpu_scheduler`). Each command is refused (an existing --out,
     --seeds 0) after the devices were set."""
     from sac_jax.compilation_cache import SEQUENTIAL_CPU_SCHEDULER
