@@ -164,8 +164,7 @@ def cpu_device_per_core(seeds: Optional[int] = None) -> None:
         return
     cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
              else os.cpu_count() or 1)
-    count = cores if seeds is None else max(
-        k for k in range(1, min(cores, max(seeds, 1)) + 1) if seeds % k == 0)
+    count = cores if seeds is None else len(seed_devices(seeds, range(cores)))
     try:
         jax.config.update("jax_num_cpu_devices", count)
     except RuntimeError:  # the backends have started: keep their devices
