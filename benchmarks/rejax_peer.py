@@ -20,9 +20,10 @@ measured two ways for each `--seeds` count:
   (cold) and again with it filled (warm): process wall time, and the summary's `run_s` (training
   after compilation), the time that issue 28 puts against the program's run time (with
   `--rounds R`, the median of the R warm runs', as the program's is of `--repeats` calls; before
-  2026-12-07, the first warm run's alone). On a CPU the
-  script makes one device per core and splits the seeds over them (`seed_devices`, recorded);
-  the program runs on this process's one device, as rejax does.
+  2026-12-07, the first warm run's alone), and `host_s`, the part of it the host spent between
+  chunks. On a CPU the script splits the seeds over as many devices, up to one per core, as
+  divide their number (`seed_devices`, recorded); the program runs on this process's one
+  device, as rejax does.
 
 End to end, each side is timed from its process's start to its trained result (writing results
 and exiting excluded on both): rejax's `to_result_s` (rejax_side.py, one process per seed count:
@@ -117,7 +118,8 @@ def script(seeds: int, cache_dir: str) -> dict:
         summary = train(os.path.join(out, "run"), *FLAGS, "--seeds", str(seeds),
                         cache_dir=cache_dir)
     return dict(wall_s=summary["process_wall_s"], compile_s=summary["compile_s"],
-                run_s=summary["run_s"], startup_s=summary["startup_s"],
+                run_s=summary["run_s"], host_s=summary["host_s"],
+                startup_s=summary["startup_s"],
                 to_result_s=round(summary["startup_s"] + summary["compile_s"]
                                   + summary["run_s"], 3),
                 delivered_mean=round(float(np.mean(summary["delivered_return"])), 1),
