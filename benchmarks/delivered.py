@@ -3,7 +3,7 @@ seeds, the time to a solved delivered policy and that policy's return in the rea
 
     python -m benchmarks.delivered                       # seeds 0-9 one by one, then --seeds 32
     python -m benchmarks.delivered --seeds 0 1 2 --many 8 --cold 5
-    python -m benchmarks.delivered --preset CartpoleBalance --many 0 --cold 5   # issue 24's CPU run
+    python -m benchmarks.delivered --preset CartpoleBalance --many 0 --cold 5 --episodes 100
 
 Each run is `python scripts/train.py --seed N --out DIR` (the README's first command, the
 `fast` preset; `--preset NAME` adds `--preset NAME` to every run) in its own process, with the
