@@ -116,6 +116,9 @@ gymnasium.make('InvertedPendulum-v5').close()" || exit 1
     export XLA_PYTHON_CLIENT_PREALLOCATE=false
     run python3 -m benchmarks.delivered --seeds 0 1 2 --many 256 --judge ours "$@" ;;
   presets)
+    # presets_delivered.py holds JAX on the GPU (its scoring) while it starts the next preset's
+    # training process: on an H100 that process ran out of memory (2026-12-07) at the default.
+    export XLA_PYTHON_CLIENT_PREALLOCATE=false
     run python3 -m benchmarks.presets_delivered "$@" ;;
   progress)
     python3 -c "import tyro, tensorboard, orbax.checkpoint; from mujoco import mjx" || exit 1
