@@ -154,7 +154,7 @@ def cpu_device_per_core(seeds: Optional[int] = None) -> None:
     256, 10k steps) trained in 55.8 s on two CPU devices against 95.9 s for the same program on
     one (2 cores, BENCHMARKS.md "rejax"). A run on one device also gets a runtime of one thread
     (`single_thread_cpu_runtime`): 3 seeds on 2 cores, which `seed_devices` keeps on one
-    device, trained in 16.3-16.9 s so against 21.3-21.5 s on one of 2 devices (2 alternated
+    device, trained in 16.3-16.9 s against 21.3-21.5 s on one of 2 devices (2 alternated
     warm `scripts/train.py` runs each, 2026-12-07).
     Takes effect only before JAX starts its backends (the first array or device query); it
     leaves a count set already by $JAX_NUM_CPU_DEVICES or XLA_FLAGS'
