@@ -8,9 +8,8 @@ the next boundary (the prefill's end or the next evaluation point), then that po
 evaluation (`Chunk`). The host calls them once per boundary (donating the state, so the replay
 buffers are updated in place), and between calls reads the points, checks for non-finite
 parameters and asks `should_stop`; on an accelerator it dispatches the next chunk before it
-does so, wherever the run can neither end nor be saved at that boundary, so that the device
-does not wait for it. The programs hold no host callback, so JAX's persistent compilation
-cache keeps them. Because each chunk is a pure function of the state, a run
+does so, wherever the run cannot end or be saved at that boundary, so the device never waits. The programs hold no host callback, so JAX's persistent
+compilation cache keeps them. Because each chunk is a pure function of the state, a run
 stopped at a chunk boundary and resumed from that state ends exactly where the uninterrupted run
 does.
 """
@@ -354,11 +353,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         itself (`stop_when_solved`), the last chunk, a stop asked for, or a save due (always,
         with `on_checkpoint` and no `checkpoint_due`). A stop asked for, or a state gone
         non-finite, found while the next chunk is under way ends the run after that chunk.
-        Default: on an accelerator, where the host's work between chunks would leave it idle.
-        Not on a CPU, where it gains nothing measurable and a stop would land a chunk later:
-        rejax's Pendulum-v1 SAC (1 seed, 20 chunks, 2 cores of a 2.6 GHz Xeon, 4 alternated
-        pairs, 2026-12-07) trained in 5.19-5.34 s ahead against 5.25-5.37 s, the host's work
-        between chunks 0.025-0.031 s of it.
+        Default: on an accelerator, where the host's work between chunks would leave it idle;
+        on a CPU the device's threads share the host's cores, and the host works 0.01-0.06 s
+        of a 5-6 s run (rejax's Pendulum-v1 SAC, 20 chunks, 2 cores).
     should_stop(): polled after every chunk; True ends the run as INTERRUPTED. Also polled while
         the host waits for a chunk: if it stays True for `stop_grace_s` seconds before the chunk
         ends, `DeviceBusy` is raised (the last saved checkpoint stays the last good one).
@@ -420,9 +417,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         # the next chunk goes ahead of this one's following unless this one may end the run
         # or must be saved
         overlap = (go_ahead and iteration < parts.num_iterations and not config.stop_when_solved
-                   and not ending and not (should_stop is not None and should_stop())
-                   and (on_checkpoint is None or (checkpoint_due is not None
-                                                  and not checkpoint_due())))
+                 and not ending and not (should_stop is not None and should_stop())
+                 and (on_checkpoint is None or (checkpoint_due is not None
+                                                and not checkpoint_due())))
         followed = _followed(runner) if overlap else runner
         under_way = dispatch(runner) if overlap else None
         new_points = points_reached(followed)
