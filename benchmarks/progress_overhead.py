@@ -89,7 +89,7 @@ def main():
             result = run_training(
                 config, seeds=args.seeds,
                 on_point=lambda step, means, returns, _: tensorboard.add_point(step, means, returns),
-                on_checkpoint=checkpoints.save, checkpoint_due=checkpoints.due)  # as the script
+                on_checkpoint=checkpoints.save)
             closing = time.perf_counter()  # the last writes, the final checkpoint's included
             tensorboard.close()
             checkpoints.close()

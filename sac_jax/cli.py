@@ -320,7 +320,6 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
             result = run_training(
                 config, seeds=seeds, seed=seed, settings=settings, resume=resume,
                 on_ready=ready, on_point=on_point, on_checkpoint=checkpoints.save,
-                checkpoint_due=checkpoints.due,
                 should_stop=lambda: stop.signal is not None, started=started,
                 check_memory=False, stop_on_non_finite=stop_on_non_finite)  # checked before
         finally:

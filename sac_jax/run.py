@@ -7,8 +7,7 @@ seed, the part itself with the seed axis taken off and put back,
 the next boundary (the prefill's end or the next evaluation point), then that point's
 evaluation (`Chunk`). The host calls them once per boundary (donating the state, so the replay
 buffers are updated in place), and between calls reads the points, checks for non-finite
-parameters and asks `should_stop`; on an accelerator it dispatches the next chunk before it
-does so, wherever the run cannot end or be saved at that boundary, so the device never waits. The programs hold no host callback, so JAX's persistent
+parameters and asks `should_stop`. The programs hold no host callback, so JAX's persistent
 compilation cache keeps them. Because each chunk is a pure function of the state, a run
 stopped at a chunk boundary and resumed from that state ends exactly where the uninterrupted run
 does.
@@ -36,8 +35,7 @@ from sac_jax.parallel import seed_axis, seed_devices, seed_mapping
 from sac_jax.position import Position
 from sac_jax.program_cache import cached_lower, without_locations
 from sac_jax.run_dir import state_template
-from sac_jax.train import (SEED_AXES, RunnerState, chunk_end, make_train_parts,
-                           non_finite_fields)
+from sac_jax.train import SEED_AXES, RunnerState, make_train_parts, non_finite_fields
 
 FINISHED, INTERRUPTED, NON_FINITE = "finished", "interrupted", "non-finite"
 
@@ -320,8 +318,6 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  on_ready: Optional[Callable[[float], None]] = None,
                  on_point: Optional[Callable[[int, dict, np.ndarray, float], None]] = None,
                  on_checkpoint: Optional[Callable[[RunnerState, dict], None]] = None,
-                 checkpoint_due: Optional[Callable[[], bool]] = None,
-                 ahead: Optional[bool] = None,
                  should_stop: Optional[Callable[[], bool]] = None,
                  started: Optional[float] = None, check_memory: bool = True,
                  stop_on_non_finite: bool = True, stop_grace_s: float = 10.0) -> RunResult:
@@ -346,16 +342,6 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
         with the loop's `Position` (`ends_run`: whether the run ends there, at its last point
         or a stop);
         the state is not touched afterwards until the call returns (save it there).
-    checkpoint_due(): whether `on_checkpoint` would save a state now (a writer that saves at
-        most every so many seconds), for `ahead`.
-    ahead: dispatch the next chunk before following the last one, so that the device does not
-        wait for the host, except where the run may have to stop there: a run that can stop
-        itself (`stop_when_solved`), the last chunk, a stop asked for, or a save due (always,
-        with `on_checkpoint` and no `checkpoint_due`). A stop asked for, or a state gone
-        non-finite, found while the next chunk is under way ends the run after that chunk.
-        Default: on an accelerator, where the host's work between chunks would leave it idle;
-        on a CPU the device's threads share the host's cores, and the host works 0.01-0.06 s
-        of a 5-6 s run (rejax's Pendulum-v1 SAC, 20 chunks, 2 cores).
     should_stop(): polled after every chunk; True ends the run as INTERRUPTED. Also polled while
         the host waits for a chunk: if it stays True for `stop_grace_s` seconds before the chunk
         ends, `DeviceBusy` is raised (the last saved checkpoint stays the last good one).
@@ -401,62 +387,40 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     def all_stopped(state) -> bool:
         return config.stop_when_solved and bool(np.all(jax.device_get(state.stopped)))
 
-    def dispatch(state: RunnerState) -> RunnerState:
-        position.chunks_done += 1
-        return chunk(state)
-
-    go_ahead = jax.default_backend() != "cpu" if ahead is None else ahead
     points = points_reached(runner)
-    iteration = int(runner.iteration)
-    under_way = (dispatch(runner) if iteration < parts.num_iterations
-                 and not all_stopped(runner) else None)
-    ending = ""  # why the run ends after the chunk under way, found while it ran
-    while under_way is not None:
-        runner, start_steps = under_way, iteration * config.num_envs
-        iteration = int(chunk_end(config, iteration, xp=np))  # where that chunk ends
-        # the next chunk goes ahead of this one's following unless this one may end the run
-        # or must be saved
-        overlap = (go_ahead and iteration < parts.num_iterations and not config.stop_when_solved
-                 and not ending and not (should_stop is not None and should_stop())
-                 and (on_checkpoint is None or (checkpoint_due is not None
-                                                and not checkpoint_due())))
-        followed = _followed(runner) if overlap else runner
-        under_way = dispatch(runner) if overlap else None
-        new_points = points_reached(followed)
-        host_start = time.perf_counter()  # without a chunk ahead, the device waits from here
+    finished = lambda state: int(state.iteration) >= parts.num_iterations
+    while not finished(runner) and not all_stopped(runner):
+        start_steps = int(runner.iteration) * config.num_envs
+        runner = chunk(runner)
+        position.chunks_done += 1
+        new_points = points_reached(runner)
+        host_start = time.perf_counter()  # the device waits from here to the next chunk
         position.run_s = host_start - start
-        steps = iteration * config.num_envs
-        # a state gone non-finite ends the run after this chunk's point is followed and saved
-        # (after the chunk ahead's, if one is): its delivered actors were selected by finite
-        # evaluations, and are what it hands over
-        message = ending or _non_finite(config, followed, seeds, position, (start_steps, steps),
-                                        stop_on_non_finite, named=lambda: under_way or runner)
+        steps = int(runner.iteration) * config.num_envs
+        # a state gone non-finite ends the run after this chunk's point is followed and saved:
+        # its delivered actors were selected by finite evaluations, and are what it hands over
+        message = _non_finite(config, runner, seeds, position, (start_steps, steps),
+                              stop_on_non_finite)
         reached = new_points > points
         if reached:
             points = new_points
             # indexed on the host: a device-side index would compile an op per new point
-            step, means, returns = _point(config, jax.device_get(followed.outputs), points - 1)
+            step, means, returns = _point(config, jax.device_get(runner.outputs), points - 1)
             position.walls[step] = position.run_s
             if on_point is not None:
                 on_point(step, means, returns, position.run_s)
         stop = should_stop is not None and should_stop()
         position.env_steps = steps
-        if under_way is not None:  # the state is the next chunk's: a run ending ends after it
-            ending = message
-            continue  # the device did not wait: no host time counted
-        position.ends_run = bool(message or stop or iteration >= parts.num_iterations
-                                 or all_stopped(runner))
+        position.ends_run = bool(message or stop or finished(runner) or all_stopped(runner))
         if on_checkpoint is not None and (reached or stop or message):  # the last chunk ends
             on_checkpoint(runner, position)  # a period
         position.host_s += time.perf_counter() - host_start
         if message:
             status = NON_FINITE
             break
-        if stop and iteration < parts.num_iterations:
+        if stop and not finished(runner):
             status, message = INTERRUPTED, f"stopped at environment step {steps}"
             break
-        if not position.ends_run:
-            under_way = dispatch(runner)
 
     position.run_s = time.perf_counter() - start
     # a checkpoint's copy counted where it fits, as the writer makes it
@@ -474,22 +438,19 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
 
 
 def _non_finite(config: SACConfig, runner: RunnerState, seeds: int, position: Position,
-                chunk_steps: Tuple[int, int], stop: bool,
-                named: Callable[[], RunnerState]) -> str:
-    """After a chunk from environment step `chunk_steps[0]` to `chunk_steps[1]` (`runner`: its
-    state, or what `_followed` copied of it): the message that ends the run if a seed's state
-    has become non-finite and `stop`, naming what went non-finite in the state `named()` (this
-    one's, or a later one's: the codes are sticky), else "" (recording the chunk's end for each
-    such run in `position.non_finite` when not `stop`). It reads the updates' sticky per-seed
-    codes (`RunnerState.non_finite`), one small fetch a chunk; a compiled check of the whole
-    state here cost a cold `fast` run 0.3 s of compiling (median of 7 alternated pairs, 2 CPU
-    cores)."""
+                chunk_steps: Tuple[int, int], stop: bool) -> str:
+    """After a chunk from environment step `chunk_steps[0]` to `chunk_steps[1]`: the message
+    that ends the run if a seed's state has become non-finite and `stop`, else "" (recording
+    the chunk's end for each such run in `position.non_finite` when not `stop`). It reads the
+    updates' sticky per-seed codes (`RunnerState.non_finite`), one small fetch a chunk; a
+    compiled check of the whole state here cost a cold `fast` run 0.3 s of compiling (median of
+    7 alternated pairs, 2 CPU cores)."""
     codes = np.broadcast_to(jax.device_get(runner.non_finite), (seeds,))
     if not codes.any():
         return ""
     if stop:
         return "non-finite {} between environment steps {} and {}".format(
-            non_finite_state(config, named(), seeds), *chunk_steps)
+            non_finite_state(config, runner, seeds), *chunk_steps)
     for run in np.flatnonzero(codes):
         position.non_finite.setdefault(int(run), chunk_steps[1])
     return ""
@@ -500,17 +461,6 @@ def non_finite_state(config: SACConfig, runner: RunnerState, seeds: int) -> Opti
     from its sticky per-seed codes (`RunnerState.non_finite`); None if every seed is finite."""
     codes = np.broadcast_to(jax.device_get(runner.non_finite), (seeds,))
     return non_finite_name(runner.sac, codes, non_finite_fields(config)) if codes.any() else None
-
-
-def _followed(runner: RunnerState) -> RunnerState:
-    """What the host loop reads to follow a chunk (its iteration, outputs, stop flags and
-    non-finite codes; the other fields None), copied into new device buffers, so that the next
-    chunk can be dispatched, taking over the state's own, before this one is followed."""
-    kept = (runner.iteration, runner.outputs, runner.stopped, runner.non_finite)
-    iteration, outputs, stopped, non_finite = jax.device_put(kept, may_alias=False)
-    empty = {field.name: None for field in dataclasses.fields(RunnerState)}
-    return RunnerState(**dict(empty, iteration=iteration, outputs=outputs, stopped=stopped,
-                              non_finite=non_finite))
 
 
 def _run_metrics(config: SACConfig, runner: RunnerState, position: Position, points: int

@@ -211,12 +211,9 @@ class CheckpointWriter(BackgroundWrites):
         if write is not None:
             write()
 
-    def due(self) -> bool:
-        """Whether `save` would save a state that does not end the run now."""
-        return time.perf_counter() - self._last_start >= self._min_interval_s
-
     def save(self, runner: RunnerState, position: Position) -> None:
-        if not (self.due() or position.ends_run):
+        due = time.perf_counter() - self._last_start >= self._min_interval_s
+        if not (due or position.ends_run):
             return
         self._last_start = time.perf_counter()
         position = position.copy()

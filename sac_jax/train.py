@@ -106,15 +106,6 @@ class RunnerState(flax.struct.PyTreeNode):
     pending: Optional[Pending] = None
 
 
-def chunk_end(config: SACConfig, iterations_done, xp=jnp):
-    """The iteration count at which a chunk starting at `iterations_done` ends: the prefill's
-    end, then every evaluation period after it. Traced in `advance`; the host loop
-    (`sac_jax.run`) computes it with `xp=np` to know, before a chunk is done, where it ends."""
-    prefill, period = config.prefill_iterations, config.iterations_per_eval
-    periods_done = (iterations_done - prefill) // period
-    return xp.where(iterations_done < prefill, prefill, prefill + (periods_done + 1) * period)
-
-
 class TrainParts(NamedTuple):
     """`init(key, hyperparams=None) -> RunnerState`; `advance(runner, max_iterations=None) ->
     runner`, the iterations up to the next boundary (the prefill's end, or the next evaluation
@@ -317,9 +308,14 @@ def make_train_parts(config: SACConfig,
                               iteration=runner.iteration + 1, non_finite=non_finite,
                               pending=pending)
 
+    def next_boundary(iterations_done: jax.Array) -> jax.Array:
+        """The iteration count at which the chunk starting at `iterations_done` ends."""
+        periods_done = (iterations_done - prefill) // period
+        return jnp.where(iterations_done < prefill, prefill, prefill + (periods_done + 1) * period)
+
     def advance(runner: RunnerState, max_iterations: Optional[int] = None) -> RunnerState:
         run_agent = agent.with_hyperparams(runner.hyperparams)
-        end = chunk_end(config, runner.iteration)  # a shared counter: one trip count for all seeds
+        end = next_boundary(runner.iteration)  # a shared counter: one trip count for all seeds
         if max_iterations is not None:
             end = jnp.minimum(end, runner.iteration + max_iterations)
         # every chunk starts and ends on a multiple of `block` (the module docstring)

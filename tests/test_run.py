@@ -120,57 +120,6 @@ def test_a_sweep_trains_on_past_a_setting_that_diverges():
     assert stopped.status == run.NON_FINITE and "seed 2" in stopped.message, stopped.message
 
 
-def test_chunk_end_on_the_host_is_where_the_traced_chunk_ends():
-    """The host loop knows where a chunk ends before the device has run it."""
-    traced = jax.jit(lambda i: train.chunk_end(CONFIG, i))
-    done = np.arange(0, CONFIG.prefill_iterations + 3 * CONFIG.iterations_per_eval)
-    host = [int(train.chunk_end(CONFIG, int(i), xp=np)) for i in done]
-    np.testing.assert_array_equal(host, np.asarray(jax.vmap(traced)(done)))
-    assert host[0] == CONFIG.prefill_iterations
-    assert host[CONFIG.prefill_iterations] == CONFIG.prefill_iterations + CONFIG.iterations_per_eval
-
-
-def test_a_chunk_dispatched_ahead_trains_the_same_run_and_holds_back_for_a_save():
-    """With `ahead` the next chunk runs while the host follows the last: the same numbers bit
-    for bit, every point followed; a save due (`checkpoint_due`) keeps the next chunk back, so
-    that the state saved is the point's, and a stop asked for at a point while the next chunk
-    is under way ends the run after that chunk (here the last: the run finishes)."""
-    followed = run.run_training(CONFIG, seeds=2, ahead=False)
-    saved = {}
-
-    def runs(**kwargs):
-        steps = saved.setdefault(len(saved), [])
-        result = run.run_training(
-            CONFIG, seeds=2, ahead=True,
-            on_checkpoint=lambda state, position: steps.append(position.env_steps), **kwargs)
-        np.testing.assert_array_equal(result.metrics["eval_return"],
-                                      followed.metrics["eval_return"])
-        assert result.points == followed.points == CONFIG.num_evals
-        return result
-
-    runs(checkpoint_due=lambda: False)
-    runs(checkpoint_due=lambda: True)
-    runs()  # a writer that cannot say: every point is saved
-    points = [int(s) for s in followed.metrics["env_steps"][0]]
-    assert saved == {0: points[-1:], 1: points, 2: points}, saved
-    stop = threading.Event()
-    ahead = run.run_training(CONFIG, seeds=2, ahead=True, should_stop=stop.is_set,
-                             on_point=lambda *_: stop.set())
-    assert ahead.status == run.FINISHED and ahead.position.env_steps == points[-1]
-    stop.clear()
-    followed = run.run_training(CONFIG, seeds=2, ahead=False, should_stop=stop.is_set,
-                                on_point=lambda *_: stop.set())
-    assert followed.status == run.INTERRUPTED and followed.position.env_steps == points[0]
-
-
-def test_a_state_gone_non_finite_under_a_chunk_ahead_is_named_by_the_chunk_it_went_in():
-    settings = {"critic_lr": [CONFIG.critic_lr, 1e30]}
-    messages = [run.run_training(CONFIG, seeds=2, settings=settings, ahead=ahead).message
-                for ahead in (False, True)]
-    where = [m.split(" of seed ")[1] for m in messages]
-    assert where[0] == where[1] and where[0].startswith("2 between environment steps"), messages
-
-
 def test_a_stop_the_device_does_not_answer_in_time_leaves_the_chunk():
     """The host polls while the device works, so a stop is seen during a chunk: within the
     grace period the chunk is waited for and the run ends INTERRUPTED after it; past it
