@@ -28,7 +28,7 @@ import jax
 import numpy as np
 
 import envs
-from sac_jax import hyperparams, memory
+from sac_jax import background, hyperparams, memory
 from sac_jax.config import SACConfig
 from sac_jax.compilation_cache import compiler_options, program_directory
 from sac_jax.parallel import seed_axis, seed_devices, seed_mapping
@@ -50,14 +50,16 @@ STOP_CHECK_S = 0.05
 """How often a wait for the device (`_wait`) looks whether a stop has been asked for."""
 
 
-def _wait(array: jax.Array, should_stop: Optional[Callable[[], bool]], grace_s: float) -> None:
+def _wait(array: jax.Array, should_stop: Optional[Callable[[], bool]], grace_s: float,
+          gate: Optional[background.LoopImportGate] = None) -> None:
     """Waits for `array`, blocked on a helper thread while this one sleeps on an event: signal
     handlers run during the wait (a blocking wait on this thread holds them off until it
     returns), and the wait takes no processor time from the device's threads. Polling
     `is_ready()` every 0.2 ms instead, rejax's Pendulum-v1 configuration trained in 6.21 s
     against 5.99 s (`run_training`, medians of 8 alternated runs, 2 CPU cores of a Zen 4 AMD
     EPYC; blocking on this thread, 5.95 s). Raises `DeviceBusy` once `should_stop()` has
-    been true for `grace_s` seconds of the wait (looked at first and every `STOP_CHECK_S`)."""
+    been true for `grace_s` seconds of the wait (looked at first and every `STOP_CHECK_S`).
+    Other threads' imports held back by `gate` run while this one sleeps."""
     if array.is_ready():
         return
     done = threading.Event()
@@ -69,14 +71,15 @@ def _wait(array: jax.Array, should_stop: Optional[Callable[[], bool]], grace_s: 
 
     threading.Thread(target=block, name="device wait", daemon=True).start()
     asked = None
-    while True:
-        if should_stop is not None and should_stop():
-            asked = time.perf_counter() if asked is None else asked
-            if time.perf_counter() - asked >= grace_s:
-                raise DeviceBusy(f"the device was still running a chunk {grace_s:g} s after "
-                                 "the stop was asked for")
-        if done.wait(STOP_CHECK_S):
-            return
+    with gate.waiting() if gate is not None else contextlib.nullcontext():
+        while True:
+            if should_stop is not None and should_stop():
+                asked = time.perf_counter() if asked is None else asked
+                if time.perf_counter() - asked >= grace_s:
+                    raise DeviceBusy(f"the device was still running a chunk {grace_s:g} s "
+                                     "after the stop was asked for")
+            if done.wait(STOP_CHECK_S):
+                return
 
 
 @dataclasses.dataclass
@@ -378,7 +381,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     status, message = FINISHED, ""
 
     def points_reached(state) -> int:
-        _wait(state.iteration, should_stop, stop_grace_s)
+        _wait(state.iteration, should_stop, stop_grace_s, gate)
         # raises the program's error, e.g. RESOURCE_EXHAUSTED for an allocation that failed
         # (fetching an output that did not fail, such as the iteration, then waits forever)
         jax.block_until_ready(state)
@@ -387,40 +390,43 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     def all_stopped(state) -> bool:
         return config.stop_when_solved and bool(np.all(jax.device_get(state.stopped)))
 
-    points = points_reached(runner)
-    finished = lambda state: int(state.iteration) >= parts.num_iterations
-    while not finished(runner) and not all_stopped(runner):
-        start_steps = int(runner.iteration) * config.num_envs
-        runner = chunk(runner)
-        position.chunks_done += 1
-        new_points = points_reached(runner)
-        host_start = time.perf_counter()  # the device waits from here to the next chunk
-        position.run_s = host_start - start
-        steps = int(runner.iteration) * config.num_envs
-        # a state gone non-finite ends the run after this chunk's point is followed and saved:
-        # its delivered actors were selected by finite evaluations, and are what it hands over
-        message = _non_finite(config, runner, seeds, position, (start_steps, steps),
-                              stop_on_non_finite)
-        reached = new_points > points
-        if reached:
-            points = new_points
-            # indexed on the host: a device-side index would compile an op per new point
-            step, means, returns = _point(config, jax.device_get(runner.outputs), points - 1)
-            position.walls[step] = position.run_s
-            if on_point is not None:
-                on_point(step, means, returns, position.run_s)
-        stop = should_stop is not None and should_stop()
-        position.env_steps = steps
-        position.ends_run = bool(message or stop or finished(runner) or all_stopped(runner))
-        if on_checkpoint is not None and (reached or stop or message):  # the last chunk ends
-            on_checkpoint(runner, position)  # a period
-        position.host_s += time.perf_counter() - host_start
-        if message:
-            status = NON_FINITE
-            break
-        if stop and not finished(runner):
-            status, message = INTERRUPTED, f"stopped at environment step {steps}"
-            break
+    # other threads' imports (the scripts': TensorBoard's writer, orbax, matplotlib) wait
+    # while this loop works between chunks, and run while it waits for the device
+    with background.LoopImportGate() as gate:
+        points = points_reached(runner)
+        finished = lambda state: int(state.iteration) >= parts.num_iterations
+        while not finished(runner) and not all_stopped(runner):
+            start_steps = int(runner.iteration) * config.num_envs
+            runner = chunk(runner)
+            position.chunks_done += 1
+            new_points = points_reached(runner)
+            host_start = time.perf_counter()  # the device waits from here to the next chunk
+            position.run_s = host_start - start
+            steps = int(runner.iteration) * config.num_envs
+            # a state gone non-finite ends the run after this chunk's point is followed and saved:
+            # its delivered actors were selected by finite evaluations, and are what it hands over
+            message = _non_finite(config, runner, seeds, position, (start_steps, steps),
+                                  stop_on_non_finite)
+            reached = new_points > points
+            if reached:
+                points = new_points
+                # indexed on the host: a device-side index would compile an op per new point
+                step, means, returns = _point(config, jax.device_get(runner.outputs), points - 1)
+                position.walls[step] = position.run_s
+                if on_point is not None:
+                    on_point(step, means, returns, position.run_s)
+            stop = should_stop is not None and should_stop()
+            position.env_steps = steps
+            position.ends_run = bool(message or stop or finished(runner) or all_stopped(runner))
+            if on_checkpoint is not None and (reached or stop or message):  # the last chunk ends
+                on_checkpoint(runner, position)  # a period
+            position.host_s += time.perf_counter() - host_start
+            if message:
+                status = NON_FINITE
+                break
+            if stop and not finished(runner):
+                status, message = INTERRUPTED, f"stopped at environment step {steps}"
+                break
 
     position.run_s = time.perf_counter() - start
     # a checkpoint's copy counted where it fits, as the writer makes it

@@ -2,11 +2,14 @@
 more between its chunks (the finiteness check included), each evaluation point reports the
 fraction of seeds solved so far, and a non-finite state is named by quantity and seed."""
 
+import builtins
 import dataclasses
 import gc
 import logging
+import sys
 import threading
 import time
+import uuid
 
 import jax
 import jax.numpy as jnp
@@ -16,7 +19,7 @@ import pytest
 import envs
 
 import sac_jax
-from sac_jax import run, train
+from sac_jax import background, run, train
 
 # shapes of its own (hidden 24), so no other test in the process has compiled this check
 CONFIG = sac_jax.PRESETS["pendulum"].replace(
@@ -181,6 +184,29 @@ def test_the_wait_for_the_device_neither_polls_nor_holds_off_signal_handlers():
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, before)
+
+
+def test_another_threads_import_waits_while_the_loop_follows_a_point(tmp_path, monkeypatch):
+    """An import of a new module begun on another thread while the loop works between chunks
+    (here, in `on_point`) waits until the loop waits for the device again
+    (`background.LoopImportGate`); after the run Python's import is as it was."""
+    monkeypatch.setattr(background, "MAX_IMPORT_HOLD_S", 60.0)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    name = f"held_{uuid.uuid4().hex}"
+    (tmp_path / f"{name}.py").write_text("")
+    threads, held = [], []
+
+    def on_point(*_):
+        if not threads:
+            threads.append(threading.Thread(target=__import__, args=(name,), daemon=True))
+            threads[0].start()
+            threads[0].join(0.3)
+            held.append(name not in sys.modules)
+
+    before = builtins.__import__
+    assert run.run_training(CONFIG, seeds=2, on_point=on_point).status == run.FINISHED
+    threads[0].join(10)
+    assert held == [True] and name in sys.modules and builtins.__import__ is before
 
 
 def test_an_evaluation_and_its_confirmation_in_one_batch_return_what_each_alone_does():
