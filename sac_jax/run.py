@@ -326,7 +326,9 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
                  stop_on_non_finite: bool = True, stop_grace_s: float = 10.0) -> RunResult:
     """Trains `seeds` seeds (keys split from `seed`), vmapped in one program (split into equal
     groups over the local devices, `sac_jax.parallel.seed_devices`) driven one chunk at a time. With
-    `config.stop_when_solved` the run ends as FINISHED once every seed has stopped.
+    `config.stop_when_solved` the run ends as FINISHED once every seed has stopped. While the
+    host loop works between chunks, other threads' imports of modules not loaded yet wait,
+    for at most `sac_jax.background.MAX_IMPORT_HOLD_S` each time (`LoopImportGate`).
 
     settings: {name: [value per setting]} of hyperparameters (`sac_jax.hyperparams.NAMES`) to
         sweep: each setting (`sac_jax.hyperparams.sweep`) trains the same `seeds` keys, all
