@@ -358,8 +358,10 @@ alternated warm runs each, `scripts/train.py` with benchmarks/rejax_peer.py's fl
 1.89-1.93 s against 1.97-1.99 s at the default; the jitted program 1.73 s; the script without
 that import 1.86-1.88 s. On the H100 of 2026-12-07, with this interval, the import still took
 0.19-0.26 s out of a 2.3 s run: less than the 0.72 s that importing it after training would
-add there (docs/performance.md). On 2 CPU cores, as fast as at the default (5.93 s against
-5.94 s, medians of 5 rounds). Compiling, before it is set, runs at the default."""
+add there (docs/performance.md); `run_training` now holds such imports back while its loop
+works between chunks (`sac_jax.background.LoopImportGate`). On 2 CPU cores, as fast as at the
+default (5.93 s against 5.94 s, medians of 5 rounds). Compiling, before it is set, runs at the
+default."""
 
 
 @contextlib.contextmanager
