@@ -71,8 +71,8 @@ class LoopImportGate:
     (2026-12-07, 4 warm runs each): the first 4-5 chunks took 95-202 ms and training
     1.90-1.99 s, against 1.76-1.77 s with those imports done before the script started. With
     the gate, on another H100: 1.845-1.870 s against 1.877-1.923 s (4 alternated rounds); the
-    bodies of modules already begun, and the collector's passes as they allocate, still take
-    their share (docs/performance.md)."""
+    bodies of modules already begun still take their share (the collector's passes do not:
+    docs/performance.md)."""
 
     def __init__(self):
         self._loop = threading.get_ident()
