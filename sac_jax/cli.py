@@ -17,7 +17,6 @@ import math
 import shutil
 import signal
 import sys
-import threading
 from typing import (TYPE_CHECKING, Any, Dict, Literal, NoReturn, Optional, Sequence, Tuple, Type,
                     TypeVar)
 
@@ -259,13 +258,14 @@ class StopRequest:
         raise LeaveNow(EXIT_CODES.get(self.signal, 130))
 
 
-def write_results(out: str, config, preset: str, result: RunResult) -> None:
+def write_results(out: str, config, preset: str, result: RunResult, write_curves) -> None:
+    """metrics.csv, summary.json and, if the run has points, curves.png, drawn by
+    `write_curves` (`plots.write_curves`'s arguments; a `plots.CurvesProcess`'s)."""
     metric_writers.write_metrics(out, result.metrics, result.points)
     metric_writers.write_summary(out, dict(result.summary, preset=preset))
     if result.points:
-        plots.write_curves(out, result.metrics, result.points,
-                             f"{config.env}, preset {preset}",
-                             result.summary["solved_threshold"])
+        write_curves(out, result.metrics, result.points, f"{config.env}, preset {preset}",
+                     result.summary["solved_threshold"])
 
 
 class RunFailed(Exception):
@@ -310,35 +310,37 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
     notice = stop.notice = CompileNotice()
 
     switch_interval = sys.getswitchinterval()
+    curves = plots.CurvesProcess()
 
     def ready(seconds):
         notice.ready(seconds)
         sys.setswitchinterval(TRAINING_SWITCH_INTERVAL_S)
-        threading.Thread(target=plots.prepare, name="plots.prepare", daemon=True).start()
-    try:
+        curves.start()
+    with contextlib.closing(curves):
         try:
-            result = run_training(
-                config, seeds=seeds, seed=seed, settings=settings, resume=resume,
-                on_ready=ready, on_point=on_point, on_checkpoint=checkpoints.save,
-                should_stop=lambda: stop.signal is not None, started=started,
-                check_memory=False, stop_on_non_finite=stop_on_non_finite)  # checked before
-        finally:
-            sys.setswitchinterval(switch_interval)
-            notice.close()
             try:
-                with _written("TensorBoard's records"):
-                    tensorboard.close()
-            finally:  # waits for the checkpoint under way, even if a signal came first
-                checkpoints.close()
-    except run_checkpoint.CheckpointWriteError as error:
-        raise RunFailed(str(error)) from None
-    except jax.errors.JaxRuntimeError as error:
-        if "RESOURCE_EXHAUSTED" not in str(error):
-            raise
-        raise RunFailed(f"out of memory on {jax.local_devices()[0].platform} "
-                        f"({_xla_reason(error)}): lower --buffer-size or --seeds") from None
-    with _written("the result files"):  # the state is saved: a resume writes them again
-        write_results(out, config, preset, result)
+                result = run_training(
+                    config, seeds=seeds, seed=seed, settings=settings, resume=resume,
+                    on_ready=ready, on_point=on_point, on_checkpoint=checkpoints.save,
+                    should_stop=lambda: stop.signal is not None, started=started,
+                    check_memory=False, stop_on_non_finite=stop_on_non_finite)  # checked before
+            finally:
+                sys.setswitchinterval(switch_interval)
+                notice.close()
+                try:
+                    with _written("TensorBoard's records"):
+                        tensorboard.close()
+                finally:  # waits for the checkpoint under way, even if a signal came first
+                    checkpoints.close()
+        except run_checkpoint.CheckpointWriteError as error:
+            raise RunFailed(str(error)) from None
+        except jax.errors.JaxRuntimeError as error:
+            if "RESOURCE_EXHAUSTED" not in str(error):
+                raise
+            raise RunFailed(f"out of memory on {jax.local_devices()[0].platform} "
+                            f"({_xla_reason(error)}): lower --buffer-size or --seeds") from None
+        with _written("the result files"):  # the state is saved: a resume writes them again
+            write_results(out, config, preset, result, curves.write_curves)
     code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
     if wandb_run is not None:
         try:  # the run and its files are whole: W&B failing now costs only its own record
@@ -350,18 +352,16 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
 
 
 TRAINING_SWITCH_INTERVAL_S = 2e-4
-"""The interpreter's thread switch interval while a run trains (CPython's default: 5 ms), set
-as matplotlib's import starts on a thread of its own (`plots.prepare`). On a GPU the host loop
-takes the GIL twice per chunk to call its programs, and each call waited for that thread to
-give the GIL up. rejax's Pendulum-v1 SAC, 1 seed, 20 chunks, on an H100 (2026-12-05, 3
+"""The interpreter's thread switch interval while a run trains (CPython's default: 5 ms). On a
+GPU the host loop takes the GIL twice per chunk to call its programs, and each call waited up to
+that long for a thread importing beside training (orbax's and TensorBoard's writer's; then
+matplotlib's as well). rejax's Pendulum-v1 SAC, 1 seed, 20 chunks, on an H100 (2026-12-05, 3
 alternated warm runs each, `scripts/train.py` with benchmarks/rejax_peer.py's flags): run time
-1.89-1.93 s against 1.97-1.99 s at the default; the jitted program 1.73 s; the script without
-that import 1.86-1.88 s. On the H100 of 2026-12-07, with this interval, the import still took
-0.19-0.26 s out of a 2.3 s run: less than the 0.72 s that importing it after training would
-add there (docs/performance.md); `run_training` now holds such imports back while its loop
-works between chunks (`sac_jax.background.LoopImportGate`). On 2 CPU cores, as fast as at the
-default (5.93 s against 5.94 s, medians of 5 rounds). Compiling, before it is set, runs at the
-default."""
+1.89-1.93 s against 1.97-1.99 s at the default; the jitted program 1.73 s. `run_training` also
+holds such imports back while its loop works between chunks
+(`sac_jax.background.LoopImportGate`), and matplotlib is now imported in another process
+(`sac_jax.plots.CurvesProcess`). On 2 CPU cores, as fast as at the default (5.93 s against
+5.94 s, medians of 5 rounds). Compiling, before it is set, runs at the default."""
 
 
 @contextlib.contextmanager

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import io
 import os
+import pickle
+import subprocess
+import sys
 from typing import Dict
 
 import numpy as np
 
 from sac_jax import background
-from sac_jax.run_dir import write_file
+from sac_jax.whole_file import write_file
 
 
 def figure(**kwargs):
@@ -23,9 +26,8 @@ def figure(**kwargs):
 
 
 def prepare() -> None:
-    """Imports what `figure` needs, for `write_curves`; `sac_jax.cli` does it on a thread of its
-    own once the run trains, while the host only waits for the device. A failure is left for
-    `write_curves` to meet and report."""
+    """Imports what `figure` needs, for `write_curves`; a `CurvesProcess` does it as it starts.
+    A failure is left for `write_curves` to meet and report."""
     try:
         _figure_classes()
     except Exception:  # noqa: BLE001
@@ -65,3 +67,74 @@ def write_curves(run_dir: str, metrics: Dict[str, np.ndarray], points: int, titl
     write_file(os.path.join(run_dir, "curves.png"), buffer.getvalue())
 
 
+
+
+class CurvesProcess:
+    """`write_curves` in a child Python process (`python -m sac_jax.plots`), `start`ed as a run
+    begins to train: matplotlib is imported there, on a core of its own, while the run trains,
+    not on a thread of the training process, where the host loop's work between chunks would
+    wait for it (the GIL). `write_curves` hands the child its arguments and waits for the file
+    (never started: draws it here); `close` ends a child not used. The child ignores the
+    terminal's Ctrl-C (a session of its own) and ends without drawing if its parent dies (its
+    input closes)."""
+
+    def __init__(self):
+        self._child = None
+
+    def start(self) -> None:
+        if self._child is None:
+            self._child = subprocess.Popen(
+                [sys.executable, "-m", "sac_jax.plots"], stdin=subprocess.PIPE,
+                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+
+    def write_curves(self, *args, **kwargs) -> None:
+        """`write_curves(*args, **kwargs)`, in the child if started. Raises OSError for a file
+        the child could not write, RuntimeError with its last line for any other failure."""
+        if self._child is None:
+            return write_curves(*args, **kwargs)
+        try:
+            pickle.dump((args, kwargs), self._child.stdin)
+        except BrokenPipeError:
+            pass  # the child has ended: its error follows
+        _, err = self._child.communicate()
+        if self._child.returncode:
+            raise _child_error(err.decode(errors="replace"))
+
+    def close(self) -> None:
+        if self._child is not None and self._child.poll() is None:
+            self._child.kill()
+            self._child.communicate()
+
+
+def _child_error(stderr: str) -> Exception:
+    """The exception a child's last stderr line names: an OSError(errno, strerror, filename)
+    it printed as `OSError errno|strerror|filename`, or RuntimeError."""
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    last = lines[-1] if lines else "the figure process ended without a word"
+    if last.startswith("OSError "):
+        errno, strerror, filename = last[len("OSError "):].split("|", 2)
+        return OSError(int(errno), strerror, filename or None)
+    return RuntimeError(f"curves.png: {last}")
+
+
+def _serve() -> None:
+    """The child's side of `CurvesProcess`: imports matplotlib, then draws what its parent
+    sends and ends at once (its parent waits for that); a closed input (the parent gone) ends
+    it without drawing."""
+    prepare()
+    try:
+        args, kwargs = pickle.load(sys.stdin.buffer)
+    except EOFError:
+        return
+    try:
+        write_curves(*args, **kwargs)
+    except OSError as error:
+        if error.errno is None:
+            raise
+        print(f"OSError {error.errno}|{error.strerror}|{error.filename or ''}", file=sys.stderr)
+        sys.exit(1)
+    os._exit(0)  # the file is whole; an interpreter's cleanup of jax's modules took 0.3 s here
+
+
+if __name__ == "__main__":
+    _serve()

@@ -392,7 +392,7 @@ def run_training(config: SACConfig, seeds: int = 1, seed: int = 0, *,
     def all_stopped(state) -> bool:
         return config.stop_when_solved and bool(np.all(jax.device_get(state.stopped)))
 
-    # other threads' imports (the scripts': TensorBoard's writer, orbax, matplotlib) wait
+    # other threads' imports (the scripts': TensorBoard's writer, orbax) wait
     # while this loop works between chunks, and run while it waits for the device
     with background.LoopImportGate() as gate:
         points = points_reached(runner)

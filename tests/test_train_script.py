@@ -194,16 +194,22 @@ def test_a_finished_run_directory_holds_every_output(runs):
     assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
 
 
-def test_training_switches_threads_more_often_then_restores_the_interval(tmp_path, monkeypatch):
-    from sac_jax import cli
+def test_training_switches_threads_more_often_and_draws_its_curves_in_another_process(
+        tmp_path, monkeypatch):
+    """The thread switch interval is `TRAINING_SWITCH_INTERVAL_S` while the run trains and as
+    before after it; curves.png comes from a `plots.CurvesProcess` started as training began
+    (drawing it in this process fails here)."""
+    from sac_jax import cli, plots
 
     seen, line = [], cli.progress_line
     monkeypatch.setattr(cli, "progress_line",
                         lambda *args: seen.append(sys.getswitchinterval()) or line(*args))
+    monkeypatch.setattr(plots, "write_curves", lambda *args: 1 / 0)
     before = sys.getswitchinterval()
     assert train_script.main(RUN + ["--out", str(tmp_path / "run")]) == 0
     assert len(seen) == 3 and seen == pytest.approx([cli.TRAINING_SWITCH_INTERVAL_S] * 3)
     assert sys.getswitchinterval() == before != pytest.approx(cli.TRAINING_SWITCH_INTERVAL_S)
+    assert open(tmp_path / "run" / "curves.png", "rb").read(8) == b"\x89PNG\r\n\x1a\n"
 
 
 def tensorboard_scalars(event_dir):
