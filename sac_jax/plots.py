@@ -73,30 +73,36 @@ class CurvesProcess:
     """`write_curves` in a child Python process (`python -m sac_jax.plots`), `start`ed as a run
     begins to train: matplotlib is imported there, on a core of its own, while the run trains,
     not on a thread of the training process, where the host loop's work between chunks would
-    wait for it (the GIL). `write_curves` hands the child its arguments and waits for the file
-    (never started: draws it here); `close` ends a child not used. The child ignores the
-    terminal's Ctrl-C (a session of its own) and ends without drawing if its parent dies (its
-    input closes)."""
+    wait for it (the GIL). `write_curves` hands the child its arguments and waits for the file;
+    `close` ends a child not used. The child ignores the terminal's Ctrl-C (a session of its
+    own) and ends without drawing if its parent dies (its input closes). Where there is no
+    child to draw (never started, not startable, killed), this process draws."""
 
     def __init__(self):
         self._child = None
 
     def start(self) -> None:
         if self._child is None:
-            self._child = subprocess.Popen(
-                [sys.executable, "-m", "sac_jax.plots"], stdin=subprocess.PIPE,
-                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+            try:
+                self._child = subprocess.Popen(
+                    [sys.executable, "-m", "sac_jax.plots"], stdin=subprocess.PIPE,
+                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+            except OSError:  # no process to be had (memory, process limits): drawn here
+                pass
 
     def write_curves(self, *args, **kwargs) -> None:
-        """`write_curves(*args, **kwargs)`, in the child if started. Raises OSError for a file
-        the child could not write, RuntimeError with its last line for any other failure."""
+        """`write_curves(*args, **kwargs)`, in the child if there is one. Raises OSError for a
+        file the child could not write, RuntimeError with its last line for any other failure
+        it reports."""
         if self._child is None:
             return write_curves(*args, **kwargs)
         try:
             pickle.dump((args, kwargs), self._child.stdin)
         except BrokenPipeError:
-            pass  # the child has ended: its error follows
+            pass  # the child has ended: its return code says how
         _, err = self._child.communicate()
+        if self._child.returncode < 0:  # killed by a signal (out of memory) before it drew
+            return write_curves(*args, **kwargs)
         if self._child.returncode:
             raise _child_error(err.decode(errors="replace"))
 
