@@ -67,8 +67,6 @@ def write_curves(run_dir: str, metrics: Dict[str, np.ndarray], points: int, titl
     write_file(os.path.join(run_dir, "curves.png"), buffer.getvalue())
 
 
-
-
 class CurvesProcess:
     """`write_curves` in a child Python process (`python -m sac_jax.plots`), `start`ed as a run
     begins to train: matplotlib is imported there, on a core of its own, while the run trains,
@@ -76,7 +74,11 @@ class CurvesProcess:
     wait for it (the GIL). `write_curves` hands the child its arguments and waits for the file;
     `close` ends a child not used. The child ignores the terminal's Ctrl-C (a session of its
     own) and ends without drawing if its parent dies (its input closes). Where there is no
-    child to draw (never started, not startable, killed), this process draws."""
+    child to draw (never started, not startable, killed), this process draws.
+
+    rejax's Pendulum-v1 SAC, 1 seed, warm, on an H100 (2026-12-08, 3 alternated runs of
+    scripts/train.py): training took 1.82-1.86 s against 1.88-1.99 s with matplotlib imported on
+    a thread of the run (the jitted program: 1.63 s). On 2 CPU cores, no change beyond noise."""
 
     def __init__(self):
         self._child = None
@@ -84,9 +86,10 @@ class CurvesProcess:
     def start(self) -> None:
         if self._child is None:
             try:
-                self._child = subprocess.Popen(
+                self._child = subprocess.Popen(  # JAX, imported with sac_jax, kept off the GPU
                     [sys.executable, "-m", "sac_jax.plots"], stdin=subprocess.PIPE,
-                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
+                    env=dict(os.environ, JAX_PLATFORMS="cpu"))
             except OSError:  # no process to be had (memory, process limits): drawn here
                 pass
 
