@@ -13,7 +13,7 @@ from typing import Dict, List, Sequence, Tuple
 import numpy as np
 
 from sac_jax.background import BackgroundWrites
-from sac_jax.run_dir import write_file, write_json
+from sac_jax.whole_file import write_file, write_json
 
 Point = Tuple[int, Dict[str, float], np.ndarray]
 """One evaluation point as `sac_jax.run.run_training` reports it: (environment steps, means

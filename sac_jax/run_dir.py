@@ -34,7 +34,7 @@ from envs import _lean_import
 from sac_jax import compilation_cache, hyperparams, program_cache
 from sac_jax.config import SACConfig
 from sac_jax.train import SEED_AXES, RunnerState, make_train_parts
-from sac_jax.whole_file import write_file
+from sac_jax.whole_file import write_file, write_json
 
 
 class RunDirError(ValueError):
@@ -59,10 +59,6 @@ class RunInfo:
     def to_json(self) -> dict:
         info = {"preset": self.preset, "seeds": self.seeds, "seed": self.seed}
         return dict(info, settings=self.settings) if self.settings else info
-
-
-def write_json(path: str, obj) -> None:
-    write_file(path, (json.dumps(obj, indent=2) + "\n").encode())
 
 
 def check_new(out: str) -> None:

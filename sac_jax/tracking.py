@@ -30,7 +30,8 @@ from sac_jax import background, wandb_records
 from sac_jax.background import BackgroundWrites
 from sac_jax.metric_writers import Point, point_scalars
 from sac_jax.messages import first_line
-from sac_jax.run_dir import RunDirError, write_json
+from sac_jax.run_dir import RunDirError
+from sac_jax.whole_file import write_json
 
 WANDB_JSON = "wandb.json"
 INSTALL = 'pip install -e ".[track]"'

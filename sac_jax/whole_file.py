@@ -5,6 +5,7 @@ on a resume: `sac_jax.metric_writers.rebuild`) goes through `write_file`."""
 
 from __future__ import annotations
 
+import json
 import os
 
 
@@ -24,3 +25,8 @@ def write_file(path: str, data: bytes, replace: bool = True) -> None:
     finally:
         if os.path.lexists(tmp):
             os.remove(tmp)
+
+
+def write_json(path: str, obj) -> None:
+    """`obj` as indented JSON text, through `write_file`."""
+    write_file(path, (json.dumps(obj, indent=2) + "\n").encode())
