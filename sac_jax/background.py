@@ -63,9 +63,9 @@ class LoopImportGate:
     interpreter's global import lock, which every thread's imports, the loop's too, would then
     wait for).
 
-    The scripts import TensorBoard's writer and orbax on threads while a warm run starts (and,
-    until `sac_jax.plots.CurvesProcess`, matplotlib), and on a GPU those imports outlasted the
-    cached programs' loading by about a second.
+    The scripts import orbax on a thread while a warm run starts (and, until
+    `sac_jax.records_process`, TensorBoard's writer and matplotlib), and on a GPU those imports
+    outlasted the cached programs' loading by about a second.
     Each module they load holds the GIL, so the loop's work between two chunks (fetching the
     point, calling the followers, dispatching the next chunk) waited for them while the device
     had nothing to do. rejax's Pendulum-v1 SAC, 1 seed, 19 chunks of about 90 ms on an H100

@@ -24,10 +24,11 @@ import tyro
 from tyro import _errors
 
 from envs._validate import is_positive_int
-from sac_jax import (compilation_cache, malloc_arenas, metric_writers, parallel, plots,
-                     run_checkpoint, tracking)
+from sac_jax import (compilation_cache, malloc_arenas, metric_writers, parallel, run_checkpoint,
+                     tracking)
 from sac_jax.messages import first_line, os_reason
 from sac_jax.presets import DEFAULT_PRESET, PRESETS
+from sac_jax.records_process import RecordsProcess
 
 if TYPE_CHECKING:
     from sac_jax.run import RunResult
@@ -260,7 +261,7 @@ class StopRequest:
 
 def write_results(out: str, config, preset: str, result: RunResult, write_curves) -> None:
     """metrics.csv, summary.json and, if the run has points, curves.png, drawn by
-    `write_curves` (`plots.write_curves`'s arguments; a `plots.CurvesProcess`'s)."""
+    `write_curves` (`plots.write_curves`'s arguments; a `RecordsProcess`'s)."""
     metric_writers.write_metrics(out, result.metrics, result.points)
     metric_writers.write_summary(out, dict(result.summary, preset=preset))
     if result.points:
@@ -292,14 +293,13 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
     from sac_jax.run import FINISHED, INTERRUPTED, evaluation_points, run_training
 
     history = evaluation_points(config, resume[0]) if resume else []  # the points done
-    with _written("TensorBoard's records"):
-        tensorboard = metric_writers.TensorBoard(out, history)
+    records = RecordsProcess(out, history)  # TensorBoard's and curves.png, by a child process
     wandb_run = tracking.follow(out, tracked, history)
 
     def on_point(step, means, eval_returns, elapsed):
         print(progress_line(step, means, runs, elapsed, config.run_steps), flush=True)
-        with _written("TensorBoard's records"):  # raises what failed on its thread
-            tensorboard.add_point(step, means, eval_returns)
+        with _written("TensorBoard's records"):  # raises what the child failed to write
+            records.add_point(step, means, eval_returns)
         if wandb_run is not None:
             try:  # raises what failed on its thread since the last point
                 wandb_run.add_point(step, means, eval_returns)
@@ -310,13 +310,12 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
     notice = stop.notice = CompileNotice()
 
     switch_interval = sys.getswitchinterval()
-    curves = plots.CurvesProcess()
 
     def ready(seconds):
         notice.ready(seconds)
         sys.setswitchinterval(TRAINING_SWITCH_INTERVAL_S)
-        curves.start()
-    with contextlib.closing(curves):
+        records.start()
+    with contextlib.closing(records):
         try:
             try:
                 result = run_training(
@@ -329,7 +328,7 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
                 notice.close()
                 try:
                     with _written("TensorBoard's records"):
-                        tensorboard.close()
+                        records.close_tensorboard()
                 finally:  # waits for the checkpoint under way, even if a signal came first
                     checkpoints.close()
         except run_checkpoint.CheckpointWriteError as error:
@@ -340,7 +339,7 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
             raise RunFailed(f"out of memory on {jax.local_devices()[0].platform} "
                             f"({_xla_reason(error)}): lower --buffer-size or --seeds") from None
         with _written("the result files"):  # the state is saved: a resume writes them again
-            write_results(out, config, preset, result, curves.write_curves)
+            write_results(out, config, preset, result, records.write_curves)
     code = {FINISHED: 0, INTERRUPTED: EXIT_CODES.get(stop.signal, 130)}.get(result.status, 1)
     if wandb_run is not None:
         try:  # the run and its files are whole: W&B failing now costs only its own record
@@ -354,13 +353,13 @@ def train_in_dir(out: str, config, preset: str, *, seeds: int, seed: int, settin
 TRAINING_SWITCH_INTERVAL_S = 2e-4
 """The interpreter's thread switch interval while a run trains (CPython's default: 5 ms). On a
 GPU the host loop takes the GIL twice per chunk to call its programs, and each call waited up to
-that long for a thread importing beside training (orbax's and TensorBoard's writer's; then
-matplotlib's as well). rejax's Pendulum-v1 SAC, 1 seed, 20 chunks, on an H100 (2026-12-05, 3
+that long for a thread importing beside training (orbax's, TensorBoard's writer's and
+matplotlib's). rejax's Pendulum-v1 SAC, 1 seed, 20 chunks, on an H100 (2026-12-05, 3
 alternated warm runs each, `scripts/train.py` with benchmarks/rejax_peer.py's flags): run time
 1.89-1.93 s against 1.97-1.99 s at the default; the jitted program 1.73 s. `run_training` also
 holds such imports back while its loop works between chunks
-(`sac_jax.background.LoopImportGate`), and matplotlib is now imported in another process
-(`sac_jax.plots.CurvesProcess`). On 2 CPU cores, as fast as at the default (5.93 s against
+(`sac_jax.background.LoopImportGate`), and TensorBoard's writer and matplotlib are now imported
+in another process (`sac_jax.records_process`). On 2 CPU cores, as fast as at the default (5.93 s against
 5.94 s, medians of 5 rounds). Compiling, before it is set, runs at the default."""
 
 

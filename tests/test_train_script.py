@@ -194,22 +194,26 @@ def test_a_finished_run_directory_holds_every_output(runs):
     assert open(os.path.join(runs["whole"], "curves.png"), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
 
 
-def test_training_switches_threads_more_often_and_draws_its_curves_in_another_process(
+def test_training_switches_threads_more_often_and_writes_its_records_in_another_process(
         tmp_path, monkeypatch):
     """The thread switch interval is `TRAINING_SWITCH_INTERVAL_S` while the run trains and as
-    before after it; curves.png comes from a `plots.CurvesProcess` started as training began
-    (drawing it in this process fails here)."""
-    from sac_jax import cli, plots
+    before after it; TensorBoard's records and curves.png come from a
+    `records_process.RecordsProcess` started as training began (writing either in this process
+    fails here)."""
+    from sac_jax import cli, plots, records_process
 
     seen, line = [], cli.progress_line
     monkeypatch.setattr(cli, "progress_line",
                         lambda *args: seen.append(sys.getswitchinterval()) or line(*args))
     monkeypatch.setattr(plots, "write_curves", lambda *args: 1 / 0)
+    monkeypatch.setattr(records_process, "TensorBoard", lambda *args: 1 / 0)
     before = sys.getswitchinterval()
     assert train_script.main(RUN + ["--out", str(tmp_path / "run")]) == 0
     assert len(seen) == 3 and seen == pytest.approx([cli.TRAINING_SWITCH_INTERVAL_S] * 3)
     assert sys.getswitchinterval() == before != pytest.approx(cli.TRAINING_SWITCH_INTERVAL_S)
     assert open(tmp_path / "run" / "curves.png", "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+    steps = [step for step, _ in _scalars(tmp_path / "run" / "tensorboard", "mean/eval_return")]
+    assert steps == [2000, 3000, 4000]
 
 
 def tensorboard_scalars(event_dir):
