@@ -1,12 +1,15 @@
 """A run's records written by a child Python process while it trains: TensorBoard's scalars
 point by point, then curves.png at the end (`python -m sac_jax.records_process`).
 
-Why a process: TensorBoard's writer and matplotlib take 0.5-0.9 s to import, and imported on a
-thread of the training process they hold the GIL that the host loop needs between chunks, while
+Why a process: TensorBoard's writer and matplotlib take 0.2-0.3 and 0.3-0.5 s to import, and
+imported on a thread of the training process they hold the GIL that the host loop needs between chunks, while
 the device waits. In a child they load on a core of their own, and the training process never
-imports them. rejax's Pendulum-v1 SAC, 1 seed, warm, on an H100 (2026-12-08, 3 alternated runs
-of scripts/train.py): training took 1.82-1.86 s with matplotlib in a child against 1.88-1.99 s
-with it imported on a thread (the jitted program: 1.63 s).
+imports them. rejax's Pendulum-v1 SAC, 1 seed, warm, through scripts/train.py (alternated runs):
+- on an H100 (2026-12-08, 3 rounds), matplotlib in a child: training 1.82-1.86 s against
+  1.88-1.99 s with it imported on a thread (the jitted program: 1.63 s);
+- on 2 cores of a 2.6 GHz Xeon (2026-12-08, 5 rounds), TensorBoard's writer in the child too:
+  training 5.05 s against 5.22 s (medians; the first chunk 329-356 ms against 348-403 ms), and
+  the process 6.36 s against 6.63 s, shorter in each round.
 """
 
 from __future__ import annotations
