@@ -9,7 +9,9 @@ times each (compile time excluded from all):
                   checkpoint (the whole state, replay buffers included, written on a
                   background thread) after it, as `scripts/train.py` does (which also
                   prints one line per point); its time runs until the last of those writes
-                  ends (before 2026-11-30 it stopped short of the final checkpoint's)
+                  ends (before 2026-11-30 it stopped short of the final checkpoint's). The
+                  scalars are written by a child process (`sac_jax.records_process`), as the
+                  script's are since 2026-12-08 (before, on a thread of this process)
 Each figure is the median over the repeats; the overheads are medians of the ratios of runs
 made back to back (the machine's speed drifts between repeats). `followed_host_pct` is the
 direct measure: the share of the followed run's time that the host spends between chunks
@@ -45,7 +47,8 @@ import numpy as np
 import sac_jax
 from benchmarks.configurations import NAMES, configuration
 from benchmarks.provenance import provenance, result_name, write_result
-from sac_jax import metric_writers, run_checkpoint, run_dir
+from sac_jax import run_checkpoint, run_dir
+from sac_jax.records_process import RecordsProcess
 from sac_jax.run import run_training
 
 
@@ -85,15 +88,16 @@ def main():
             returns["chunks"] = result.metrics["eval_return"]
             out = os.path.join(tmp, f"run{r}")
             run_dir.create(out, config, args.preset, args.seeds, 0)
-            tensorboard, checkpoints = metric_writers.TensorBoard(out), run_checkpoint.CheckpointWriter(out)
+            records, checkpoints = RecordsProcess(out), run_checkpoint.CheckpointWriter(out)
             result = run_training(
-                config, seeds=args.seeds,
-                on_point=lambda step, means, returns, _: tensorboard.add_point(step, means, returns),
+                config, seeds=args.seeds, on_ready=lambda _: records.start(),
+                on_point=lambda step, means, returns, _: records.add_point(step, means, returns),
                 on_checkpoint=checkpoints.save)
             closing = time.perf_counter()  # the last writes, the final checkpoint's included
-            tensorboard.close()
+            records.close_tensorboard()
             checkpoints.close()
             close_s = time.perf_counter() - closing
+            records.close()
             times["followed"].append(result.summary["run_s"] + close_s)
             host.append((result.summary["host_s"] + close_s) / times["followed"][-1])
             returns["followed"] = result.metrics["eval_return"]

@@ -2,14 +2,21 @@
 point by point, then curves.png at the end (`python -m sac_jax.records_process`).
 
 Why a process: TensorBoard's writer and matplotlib take 0.2-0.3 and 0.3-0.5 s to import, and
-imported on a thread of the training process they hold the GIL that the host loop needs between chunks, while
-the device waits. In a child they load on a core of their own, and the training process never
-imports them. rejax's Pendulum-v1 SAC, 1 seed, warm, through scripts/train.py (alternated runs):
+imported on a thread of the training process they hold the GIL that the host loop needs between
+chunks, while the device waits. In a child they load on a core of their own, and the training
+process never imports them.
+rejax's Pendulum-v1 SAC, 1 seed, warm, through scripts/train.py (alternated runs):
 - on an H100 (2026-12-08, 3 rounds), matplotlib in a child: training 1.82-1.86 s against
   1.88-1.99 s with it imported on a thread (the jitted program: 1.63 s);
-- on 2 cores of a 2.6 GHz Xeon (2026-12-08, 5 rounds), TensorBoard's writer in the child too:
-  training 5.05 s against 5.22 s (medians; the first chunk 329-356 ms against 348-403 ms), and
-  the process 6.36 s against 6.63 s, shorter in each round.
+- on 2 cores of a 2.6 GHz Xeon (2026-12-08, two sets of 5 rounds against b723cb3, whose
+  TensorBoard records were written on a thread of the training process): medians of training
+  5.05 s against 5.22 s and of the process 6.36 s against 6.63 s with the child at the default
+  priority; 4.90 s against 4.88 s and 6.17 s against 6.29 s with it niced (below).
+The child runs at the lowest priority (`os.nice(19)`): on those 2 cores, `python -m
+benchmarks.progress_overhead --repeats 7 --no-single-scan` (the `fast` preset, 1 seed) gave a
+followed run +2.6 and +3.0 % over the bare chunks with a child of default priority, -0.2 and
++0.6 % with it niced, -0.1 and -0.5 % for b723cb3; BENCHMARKS.md's run (`--repeats 9`, niced)
++2.0 %. Single ratios spread over ±3 %; the child's 0.7 s of CPU costs about 1 % of that run.
 """
 
 from __future__ import annotations
@@ -143,6 +150,7 @@ def _serve() -> None:
     """The child's side of `RecordsProcess`: writes TensorBoard's records as the points come,
     answers `CLOSED` once they are whole, draws curves.png and ends at once (its parent waits
     for that). A closed input (the parent gone) closes the records and ends it."""
+    os.nice(19)  # never urgent while the run trains: its threads go first on a busy CPU
     tensorboard: Optional[TensorBoard] = None
     try:
         try:

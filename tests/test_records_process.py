@@ -155,12 +155,14 @@ def test_any_other_failure_of_the_child_is_its_last_line(tmp_path):
     assert os.listdir(tmp_path) == ["tensorboard"]  # and no curves.png, whole or in part
 
 
-def test_a_child_not_used_is_ended_and_one_whose_parent_is_gone_ends_with_its_records_whole(
+def test_a_child_runs_last_ends_when_not_used_and_ends_with_its_records_whole_if_orphaned(
         tmp_path):
     records = RecordsProcess(str(tmp_path))
     records.start()
     child = records._child
     assert os.getsid(child.pid) != os.getsid(0)  # a terminal's Ctrl-C does not reach it
+    records.close_tensorboard()
+    assert os.getpriority(os.PRIO_PROCESS, child.pid) == 19  # training's threads go first
     records.close()
     assert child.returncode is not None
     records = RecordsProcess(str(tmp_path), HISTORY)
