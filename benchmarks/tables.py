@@ -311,8 +311,8 @@ UPDATES_CPU = "python -m benchmarks.update_throughput --updates 100 --rounds 10"
 SCALING_GPU = "bash benchmarks/gpu.sh updates --seeds 1 256 --hidden-dtype float32 bfloat16"
 SCALING_CPU = "python -m benchmarks.seed_scaling --seeds 1 2 --hidden-dtype float32 bfloat16"
 TORCH_CPU = "python -m benchmarks.torch_time_to_solve --threads 2"
-PROGRESS_CPU = {"fast": "python -m benchmarks.progress_overhead --repeats 5",
-                "pendulum": "python -m benchmarks.progress_overhead --preset pendulum --repeats 3"}
+PROGRESS_CPU = {"fast": "python -m benchmarks.progress_overhead --repeats 9",
+                "pendulum": "python -m benchmarks.progress_overhead --preset pendulum --repeats 9"}
 PROGRESS_GPU = {"fast": "bash benchmarks/gpu.sh progress --seeds 256 --repeats 7 --no-single-scan"}
 PARALLEL_GPUS = "bash benchmarks/gpu.sh parallel"  # on a host of 2 GPUs
 

@@ -359,8 +359,9 @@ alternated warm runs each, `scripts/train.py` with benchmarks/rejax_peer.py's fl
 1.89-1.93 s against 1.97-1.99 s at the default; the jitted program 1.73 s. `run_training` also
 holds such imports back while its loop works between chunks
 (`sac_jax.background.LoopImportGate`), and TensorBoard's writer and matplotlib are now imported
-in another process (`sac_jax.records_process`). On 2 CPU cores, as fast as at the default (5.93 s against
-5.94 s, medians of 5 rounds). Compiling, before it is set, runs at the default."""
+in another process (`sac_jax.records_process`). On 2 CPU cores, as fast as at the default
+(5.93 s against 5.94 s, medians of 5 rounds). Compiling, before it is set, runs at the
+default."""
 
 
 @contextlib.contextmanager
