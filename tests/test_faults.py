@@ -207,15 +207,29 @@ def test_a_checkpoint_that_cannot_be_written_ends_the_run_in_one_line(tmp_path, 
     run_checkpoint.load_checkpoint(out)  # whole: it loads
 
 
+FULL_DISK_UNDER_TENSORBOARD = """\
+import errno, os
+from sac_jax import metric_writers
+
+def full_disk(self, *args):
+    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+metric_writers.TensorBoard._write = full_disk
+"""
+"""A `sitecustomize` module: every Python process started with it on its path fails to write
+TensorBoard's events as a full disk would."""
+
+
 def test_tensorboard_records_that_cannot_be_written_end_a_new_run_leaving_nothing(
         tmp_path, capsys, monkeypatch):
-    """A full disk under TensorBoard's event file at the first point (its writer's thread
-    fails; the failure is re-raised at the next point or at the end): exit 1, one line naming
-    it; a new run with no checkpoint yet leaves no directory, so --out is free again."""
-    def full_disk(self, *args):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-
-    monkeypatch.setattr(metric_writers.TensorBoard, "_write", full_disk)
+    """A full disk under TensorBoard's event file at the first point, met by the records
+    process (`sac_jax.records_process`, given a `sitecustomize` that fails the write; its
+    failure reaches the run at a later point or at the end): exit 1, one line naming it; a new
+    run with no checkpoint yet leaves no directory, so --out is free again."""
+    (tmp_path / "site").mkdir()
+    (tmp_path / "site" / "sitecustomize.py").write_text(FULL_DISK_UNDER_TENSORBOARD)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
+        [str(tmp_path / "site")] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
     monkeypatch.setattr(run_checkpoint, "MIN_INTERVAL_S", 1e9)  # no checkpoint before the end
     out = str(tmp_path / "full")
     assert train_script.main(SMALL_RUN + ["--out", out]) == 1
