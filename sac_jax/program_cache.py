@@ -35,6 +35,7 @@ import contextlib
 import functools
 import hashlib
 import importlib.metadata
+import importlib.util
 import os
 import pickle
 import platform
@@ -74,7 +75,7 @@ def _code_fingerprint() -> str:
             version = "absent"
         digest.update(f"{name}=={version}".encode())
     for package in SOURCE_PACKAGES:
-        root = os.path.dirname(sys.modules[package].__file__)
+        root = os.path.dirname(importlib.util.find_spec(package).origin)  # imported or not
         for folder, dirs, files in sorted(os.walk(root)):
             dirs[:] = sorted(d for d in dirs if d != "__pycache__")
             for name in sorted(files):
